@@ -1,0 +1,9 @@
+//! Geometry kernels: rays, boxes and ray/triangle tests.
+
+pub mod aabb;
+pub mod ray;
+pub mod triangle;
+
+pub use aabb::Aabb;
+pub use ray::{PreparedRay, Ray, RayError, octant};
+pub use triangle::{Kernel, MollerTrumbore, TriangleHit, TriangleTest, Watertight, is_degenerate};

@@ -1,0 +1,209 @@
+//! Rays and segments, and the per-ray constants that traversal precomputes.
+//!
+//! A [`Ray`] is the half-open line `origin + t * dir` restricted to `tmin <= t <= tmax` (both ends
+//! inclusive). `dir` does not need to be normalised: `t` is measured in units of `dir`, so a
+//! segment from `a` to `b` is simply `dir = b - a`, `tmax = 1`.
+//!
+//! Queries never panic on a bad ray: a ray whose origin or direction is NaN or infinite, whose
+//! direction is zero, or whose range is empty or NaN misses everything. [`Ray::validate`] says why.
+
+use glam::Vec3;
+
+/// A ray `origin + t * dir` for `t` in `[tmin, tmax]`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Ray {
+    /// Where the ray starts (at `t = 0`).
+    pub origin: Vec3,
+    /// The direction; any length except zero.
+    pub dir: Vec3,
+    /// Smallest accepted `t` (inclusive); must be `>= 0`.
+    pub tmin: f32,
+    /// Largest accepted `t` (inclusive); `f32::INFINITY` for an unbounded ray.
+    pub tmax: f32,
+}
+
+/// Why a ray can never hit anything. Queries treat such rays as misses; this says why.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum RayError {
+    /// A component of the origin is NaN or infinite.
+    NonFiniteOrigin,
+    /// A component of the direction is NaN or infinite.
+    NonFiniteDirection,
+    /// The direction is zero (or every component is below `f32::MIN_POSITIVE`, see
+    /// [`Ray::validate`]).
+    ZeroDirection,
+    /// `tmin` or `tmax` is NaN, `tmin` is negative or infinite, or `tmin > tmax`.
+    InvalidRange,
+}
+
+impl std::fmt::Display for RayError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            RayError::NonFiniteOrigin => "ray origin is NaN or infinite",
+            RayError::NonFiniteDirection => "ray direction is NaN or infinite",
+            RayError::ZeroDirection => "ray direction is zero",
+            RayError::InvalidRange => "ray range is empty, negative or NaN (need 0 <= tmin <= tmax)",
+        })
+    }
+}
+
+impl std::error::Error for RayError {}
+
+impl Ray {
+    /// An unbounded ray: `tmin = 0`, `tmax = +inf`.
+    pub fn new(origin: Vec3, dir: Vec3) -> Self {
+        Self::with_range(origin, dir, 0.0, f32::INFINITY)
+    }
+
+    /// A ray restricted to `[tmin, tmax]`.
+    pub fn with_range(origin: Vec3, dir: Vec3, tmin: f32, tmax: f32) -> Self {
+        Self {
+            origin,
+            dir,
+            tmin,
+            tmax,
+        }
+    }
+
+    /// The segment from `from` to `to`, both ends included: `dir = to - from`, `t` in `[0, 1]`.
+    /// A hit's `t` is the fraction of the way from `from` to `to`.
+    pub fn segment(from: Vec3, to: Vec3) -> Self {
+        Self::with_range(from, to - from, 0.0, 1.0)
+    }
+
+    /// The point at parameter `t`.
+    pub fn at(&self, t: f32) -> Vec3 {
+        self.origin + self.dir * t
+    }
+
+    /// Checks that the ray can hit something; queries treat an invalid ray as a miss.
+    ///
+    /// Direction components smaller in magnitude than `f32::MIN_POSITIVE` (subnormals) are
+    /// treated as zero by every query (their reciprocal would overflow); a direction made only of
+    /// such components is reported as [`RayError::ZeroDirection`].
+    pub fn validate(&self) -> Result<(), RayError> {
+        if !self.origin.is_finite() {
+            return Err(RayError::NonFiniteOrigin);
+        }
+        if !self.dir.is_finite() {
+            return Err(RayError::NonFiniteDirection);
+        }
+        if flush_subnormals(self.dir) == Vec3::ZERO {
+            return Err(RayError::ZeroDirection);
+        }
+        // Written so that NaN fails every comparison and lands in the error.
+        let range_ok = self.tmin >= 0.0 && self.tmin <= self.tmax && self.tmin.is_finite();
+        if !range_ok {
+            return Err(RayError::InvalidRange);
+        }
+        Ok(())
+    }
+
+    /// True if [`Ray::validate`] passes.
+    pub fn is_valid(&self) -> bool {
+        self.validate().is_ok()
+    }
+}
+
+/// Replaces subnormal components (and -0) by +0 or -0 of the same sign: `1 / x` must not overflow.
+pub(crate) fn flush_subnormals(v: Vec3) -> Vec3 {
+    let flush = |x: f32| if x.abs() < f32::MIN_POSITIVE { 0.0f32.copysign(x) } else { x };
+    Vec3::new(flush(v.x), flush(v.y), flush(v.z))
+}
+
+/// Index (0..8) of a direction's octant: bit 0 set if `x` is negative, bit 1 for `y`, bit 2 for
+/// `z`. The sign bit is used, so `-0.0` counts as negative, consistently everywhere.
+pub fn octant(dir: Vec3) -> u32 {
+    (dir.x.is_sign_negative() as u32)
+        | ((dir.y.is_sign_negative() as u32) << 1)
+        | ((dir.z.is_sign_negative() as u32) << 2)
+}
+
+/// The per-ray constants every kernel needs, computed once per query.
+///
+/// Both the box test and the triangle tests read the same (subnormal-flushed) direction, so they
+/// agree on which ray they test.
+#[derive(Clone, Copy, Debug)]
+pub struct PreparedRay {
+    pub origin: Vec3,
+    pub dir: Vec3,
+    /// `1 / dir`, `+-inf` on zero components (see [`crate::geom::aabb`] for why that is safe).
+    pub inv_dir: Vec3,
+    pub tmin: f32,
+    pub tmax: f32,
+    /// `1 << octant(dir)`: ANDed with a node's ordering byte to pick the child visited first.
+    pub octant_mask: u8,
+    /// Watertight kernel: the axis of largest `|dir|` (z after permutation), and the other two.
+    pub kx: usize,
+    pub ky: usize,
+    pub kz: usize,
+    /// Watertight kernel: shear constants `dir[kx]/dir[kz]`, `dir[ky]/dir[kz]`, `1/dir[kz]`.
+    pub shear: Vec3,
+}
+
+impl PreparedRay {
+    /// Precomputes the kernel constants; `None` if the ray is invalid (it misses everything).
+    pub fn new(ray: &Ray) -> Option<Self> {
+        ray.validate().ok()?;
+        let dir = flush_subnormals(ray.dir);
+        let abs = dir.abs();
+        let kz = if abs.x >= abs.y && abs.x >= abs.z {
+            0
+        } else if abs.y >= abs.z {
+            1
+        } else {
+            2
+        };
+        let mut kx = (kz + 1) % 3;
+        let mut ky = (kx + 1) % 3;
+        // Keep the winding of the projected triangle independent of the ray's direction sign.
+        if dir[kz] < 0.0 {
+            std::mem::swap(&mut kx, &mut ky);
+        }
+        let shear = Vec3::new(dir[kx] / dir[kz], dir[ky] / dir[kz], 1.0 / dir[kz]);
+        Some(Self {
+            origin: ray.origin,
+            dir,
+            inv_dir: Vec3::ONE / dir,
+            tmin: ray.tmin,
+            tmax: ray.tmax,
+            octant_mask: 1u8 << octant(dir),
+            kx,
+            ky,
+            kz,
+            shear,
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn validation_names_the_problem() {
+        let o = Vec3::ZERO;
+        let d = Vec3::X;
+        assert_eq!(Ray::new(Vec3::NAN, d).validate(), Err(RayError::NonFiniteOrigin));
+        assert_eq!(
+            Ray::new(o, Vec3::new(f32::INFINITY, 0.0, 0.0)).validate(),
+            Err(RayError::NonFiniteDirection)
+        );
+        assert_eq!(Ray::new(o, Vec3::ZERO).validate(), Err(RayError::ZeroDirection));
+        assert_eq!(Ray::new(o, Vec3::splat(1e-40)).validate(), Err(RayError::ZeroDirection));
+        assert_eq!(Ray::with_range(o, d, 2.0, 1.0).validate(), Err(RayError::InvalidRange));
+        assert_eq!(Ray::with_range(o, d, -1.0, 1.0).validate(), Err(RayError::InvalidRange));
+        assert_eq!(Ray::with_range(o, d, f32::NAN, 1.0).validate(), Err(RayError::InvalidRange));
+        assert_eq!(Ray::with_range(o, d, 0.0, f32::NAN).validate(), Err(RayError::InvalidRange));
+        assert!(Ray::new(o, d).is_valid());
+        assert!(Ray::segment(o, Vec3::ONE).is_valid());
+        assert!(Ray::segment(o, o).validate() == Err(RayError::ZeroDirection));
+    }
+
+    #[test]
+    fn octant_uses_sign_bits() {
+        assert_eq!(octant(Vec3::new(1.0, 1.0, 1.0)), 0);
+        assert_eq!(octant(Vec3::new(-0.0, 1.0, 1.0)), 1);
+        assert_eq!(octant(Vec3::new(1.0, -2.0, -0.0)), 6);
+    }
+}

@@ -1,0 +1,216 @@
+//! Ray/triangle kernels: watertight (the default) and Möller-Trumbore (fast, for comparison).
+//!
+//! **Watertight** (Woop, Benthin, Wald, "Watertight Ray/Triangle Intersection", JCGT 2013):
+//! the vertices are translated to the ray origin and sheared so that the ray becomes the +z
+//! axis; the hit test is then three 2D edge functions `U, V, W` evaluated on the projected
+//! vertices. Two triangles sharing an edge evaluate that edge function on the same two projected
+//! points, so a ray through the edge sees the same value (with opposite sign) from both and
+//! cannot slip between them. When an edge function is exactly zero the three are recomputed in
+//! `f64`, where the products are exact, so the sign test on edges and vertices is exact too.
+//! Edges are inclusive and both windings hit (no back-face culling).
+//!
+//! **Möller-Trumbore** (1997) computes barycentrics with two cross products and a division. It
+//! is a few instructions shorter but rounds each triangle's edge test independently, so rays
+//! aimed at shared edges and vertices can leak through a closed mesh. It exists so that the
+//! speed/accuracy trade-off can be measured; do not use it where leaks matter.
+//!
+//! Both kernels return `t` and barycentrics `u, v` with `p = (1 - u - v) * v0 + u * v1 + v * v2`,
+//! accept `tmin <= t <= tmax`, and never report a hit on a zero-area triangle.
+
+use glam::{DVec3, Vec3};
+
+use super::ray::PreparedRay;
+
+/// Where a ray meets one triangle: `p = (1 - u - v) * v0 + u * v1 + v * v2 = origin + t * dir`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TriangleHit {
+    pub t: f32,
+    pub u: f32,
+    pub v: f32,
+}
+
+/// A ray/triangle kernel, chosen at compile time inside the traversal loops.
+pub trait TriangleTest: Copy + Send + Sync + 'static {
+    /// The hit of `ray` with the triangle `tri` for `t` in `[ray.tmin, tmax]`, if any.
+    fn intersect(ray: &PreparedRay, tri: &[Vec3; 3], tmax: f32) -> Option<TriangleHit>;
+}
+
+/// Which kernel a query uses.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum Kernel {
+    /// Woop et al. 2013: exact on shared edges and vertices. The default.
+    #[default]
+    Watertight,
+    /// Möller-Trumbore: slightly faster, may leak on shared edges.
+    MollerTrumbore,
+}
+
+impl Kernel {
+    pub const ALL: [Kernel; 2] = [Kernel::Watertight, Kernel::MollerTrumbore];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            Kernel::Watertight => "watertight",
+            Kernel::MollerTrumbore => "moller-trumbore",
+        }
+    }
+}
+
+/// The watertight kernel (see the module docs).
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Watertight;
+
+/// The Möller-Trumbore kernel (see the module docs).
+#[derive(Clone, Copy, Debug, Default)]
+pub struct MollerTrumbore;
+
+impl TriangleTest for Watertight {
+    #[inline(always)]
+    fn intersect(ray: &PreparedRay, tri: &[Vec3; 3], tmax: f32) -> Option<TriangleHit> {
+        let (kx, ky, kz) = (ray.kx, ray.ky, ray.kz);
+        let a = tri[0] - ray.origin;
+        let b = tri[1] - ray.origin;
+        let c = tri[2] - ray.origin;
+        // Shear and project onto the plane perpendicular to the ray.
+        let (sx, sy, sz) = (ray.shear.x, ray.shear.y, ray.shear.z);
+        let ax = a[kx] - sx * a[kz];
+        let ay = a[ky] - sy * a[kz];
+        let bx = b[kx] - sx * b[kz];
+        let by = b[ky] - sy * b[kz];
+        let cx = c[kx] - sx * c[kz];
+        let cy = c[ky] - sy * c[kz];
+        let mut u = cx * by - cy * bx;
+        let mut v = ax * cy - ay * cx;
+        let mut w = bx * ay - by * ax;
+        if u == 0.0 || v == 0.0 || w == 0.0 {
+            let (ax, ay, bx, by, cx, cy) = (
+                ax as f64, ay as f64, bx as f64, by as f64, cx as f64, cy as f64,
+            );
+            u = (cx * by - cy * bx) as f32;
+            v = (ax * cy - ay * cx) as f32;
+            w = (bx * ay - by * ax) as f32;
+        }
+        if (u < 0.0 || v < 0.0 || w < 0.0) && (u > 0.0 || v > 0.0 || w > 0.0) {
+            return None;
+        }
+        let det = u + v + w;
+        if det == 0.0 {
+            return None;
+        }
+        let t_scaled = u * (sz * a[kz]) + v * (sz * b[kz]) + w * (sz * c[kz]);
+        let t = t_scaled / det;
+        // `!(t >= tmin)` rather than `t < tmin` so that a NaN t is a miss.
+        if !(t >= ray.tmin && t <= tmax) {
+            return None;
+        }
+        Some(TriangleHit {
+            t,
+            u: v / det,
+            v: w / det,
+        })
+    }
+}
+
+impl TriangleTest for MollerTrumbore {
+    #[inline(always)]
+    fn intersect(ray: &PreparedRay, tri: &[Vec3; 3], tmax: f32) -> Option<TriangleHit> {
+        let e1 = tri[1] - tri[0];
+        let e2 = tri[2] - tri[0];
+        let p = ray.dir.cross(e2);
+        let det = e1.dot(p);
+        if det == 0.0 {
+            return None;
+        }
+        let inv_det = 1.0 / det;
+        let s = ray.origin - tri[0];
+        let u = s.dot(p) * inv_det;
+        if !(0.0..=1.0).contains(&u) {
+            return None;
+        }
+        let q = s.cross(e1);
+        let v = ray.dir.dot(q) * inv_det;
+        if v < 0.0 || u + v > 1.0 {
+            return None;
+        }
+        let t = e2.dot(q) * inv_det;
+        if !(t >= ray.tmin && t <= tmax) {
+            return None;
+        }
+        Some(TriangleHit { t, u, v })
+    }
+}
+
+/// True if the triangle has zero area as computed in `f64`: no kernel reports hits on it, and
+/// the trees leave it out.
+pub fn is_degenerate(tri: &[Vec3; 3]) -> bool {
+    let a = tri[0].as_dvec3();
+    let e1: DVec3 = tri[1].as_dvec3() - a;
+    let e2: DVec3 = tri[2].as_dvec3() - a;
+    e1.cross(e2) == DVec3::ZERO
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::geom::Ray;
+
+    const TRI: [Vec3; 3] = [
+        Vec3::new(0.0, 0.0, 1.0),
+        Vec3::new(1.0, 0.0, 1.0),
+        Vec3::new(0.0, 1.0, 1.0),
+    ];
+
+    fn both(o: Vec3, d: Vec3, tri: &[Vec3; 3]) -> [Option<TriangleHit>; 2] {
+        let r = PreparedRay::new(&Ray::new(o, d)).unwrap();
+        [
+            Watertight::intersect(&r, tri, r.tmax),
+            MollerTrumbore::intersect(&r, tri, r.tmax),
+        ]
+    }
+
+    #[test]
+    fn hit_reports_t_and_barycentrics() {
+        for hit in both(Vec3::new(0.25, 0.5, 0.0), Vec3::Z, &TRI) {
+            let h = hit.unwrap();
+            assert_eq!(h.t, 1.0);
+            assert!((h.u - 0.25).abs() < 1e-6 && (h.v - 0.5).abs() < 1e-6, "{h:?}");
+        }
+    }
+
+    #[test]
+    fn both_windings_hit_and_misses_miss() {
+        let flipped = [TRI[0], TRI[2], TRI[1]];
+        for hit in both(Vec3::new(0.25, 0.25, 3.0), -Vec3::Z, &flipped) {
+            assert_eq!(hit.unwrap().t, 2.0);
+        }
+        for hit in both(Vec3::new(0.75, 0.75, 0.0), Vec3::Z, &TRI) {
+            assert!(hit.is_none());
+        }
+    }
+
+    #[test]
+    fn watertight_includes_edges_and_vertices() {
+        let r = |o: Vec3| PreparedRay::new(&Ray::new(o, Vec3::Z)).unwrap();
+        for p in [Vec3::ZERO, Vec3::X, Vec3::Y, Vec3::new(0.5, 0.5, 0.0)] {
+            let ray = r(p);
+            assert!(Watertight::intersect(&ray, &TRI, f32::INFINITY).is_some(), "{p}");
+        }
+    }
+
+    #[test]
+    fn degenerate_triangles_never_hit() {
+        let line = [Vec3::ZERO, Vec3::X, Vec3::X * 2.0];
+        assert!(is_degenerate(&line));
+        assert!(!is_degenerate(&TRI));
+        for hit in both(Vec3::new(0.5, 0.0, -1.0), Vec3::Z, &line) {
+            assert!(hit.is_none());
+        }
+    }
+
+    #[test]
+    fn parallel_ray_misses() {
+        for hit in both(Vec3::new(-1.0, 0.25, 1.0), Vec3::X, &TRI) {
+            assert!(hit.is_none());
+        }
+    }
+}
