@@ -11,7 +11,7 @@
 //! sign bit and folded with comparisons that drop a NaN operand, so that case means "no
 //! constraint from this axis": the ray grazes the face, which counts as touching.
 
-use glam::Vec3;
+use glam::{Vec3, Vec3A};
 
 use super::ray::PreparedRay;
 
@@ -88,40 +88,38 @@ impl Aabb {
     /// `[ray.tmin, tmax]`. Never false for a box the exact ray touches.
     #[inline(always)]
     pub fn hit_by(&self, ray: &PreparedRay, tmax: f32) -> bool {
-        hit_box(self.min, self.max, ray, tmax)
+        self.entry(ray, tmax) < f32::INFINITY
+    }
+
+    /// The ray's (conservative) entry distance into the box within `[ray.tmin, tmax]`, or
+    /// `+inf` if it misses. Comparing the result with a smaller `tmax` later gives the same
+    /// answer as testing again: `entry(ray, t2) < inf` iff `entry(ray, t1) <= t2` for `t2 <= t1`.
+    #[inline(always)]
+    pub fn entry(&self, ray: &PreparedRay, tmax: f32) -> f32 {
+        box_entry(self.min, self.max, ray, tmax)
     }
 }
 
-/// `max(slab, acc)` that keeps `acc` when `slab` is NaN (an axis the ray grazes).
+/// The slab test on raw bounds (see the module docs for the NaN and rounding reasoning):
+/// the entry distance, or `+inf` on a miss.
+///
+/// The near and far planes are picked by the direction's sign bits, and each lane is folded
+/// into the running range with an explicit compare-and-select, so a NaN lane (an axis the ray
+/// grazes) leaves the range alone on every platform (SSE, NEON and scalar `max` disagree on
+/// NaN, so `max`/`min` are not used for the fold).
 #[inline(always)]
-fn fold_max(slab: f32, acc: f32) -> f32 {
-    if slab > acc { slab } else { acc }
-}
-
-/// `min(slab, acc)` that keeps `acc` when `slab` is NaN.
-#[inline(always)]
-fn fold_min(slab: f32, acc: f32) -> f32 {
-    if slab < acc { slab } else { acc }
-}
-
-/// The slab test on raw bounds (see the module docs for the NaN and rounding reasoning).
-#[inline(always)]
-pub fn hit_box(min: Vec3, max: Vec3, ray: &PreparedRay, tmax: f32) -> bool {
-    let t_min = (min - ray.origin) * ray.inv_dir;
-    let t_max = (max - ray.origin) * ray.inv_dir;
-    let mut near = ray.tmin;
-    let mut far = tmax;
-    for axis in 0..3 {
-        let negative = ray.inv_dir[axis].is_sign_negative();
-        let (enter, exit) = if negative {
-            (t_max[axis], t_min[axis])
-        } else {
-            (t_min[axis], t_max[axis])
-        };
-        near = fold_max(enter, near);
-        far = fold_min(exit * EXIT_SCALE, far);
-    }
-    near <= far
+pub fn box_entry(min: Vec3, max: Vec3, ray: &PreparedRay, tmax: f32) -> f32 {
+    let (min, max) = (Vec3A::from(min), Vec3A::from(max));
+    let near_plane = Vec3A::select(ray.negative, max, min);
+    let far_plane = Vec3A::select(ray.negative, min, max);
+    let enter = (near_plane - ray.origin_a) * ray.inv_dir_a;
+    let exit = (far_plane - ray.origin_a) * ray.inv_dir_a * EXIT_SCALE;
+    let lo = Vec3A::splat(ray.tmin);
+    // Hits have finite `t`, so an infinite entry (a parallel ray below a slab) is a miss.
+    let hi = Vec3A::splat(tmax.min(f32::MAX));
+    let near = Vec3A::select(enter.cmpgt(lo), enter, lo).max_element();
+    let far = Vec3A::select(exit.cmplt(hi), exit, hi).min_element();
+    if near <= far { near } else { f32::INFINITY }
 }
 
 #[cfg(test)]
@@ -142,6 +140,8 @@ mod tests {
             assert!(b.hit_by(&r, f32::INFINITY));
             // Parallel, outside the y slab.
             let r = prepared(Vec3::new(-1.0, 1.5, 0.5), Vec3::new(1.0, zero, zero));
+            assert!(!b.hit_by(&r, f32::INFINITY));
+            let r = prepared(Vec3::new(-1.0, -0.5, 0.5), Vec3::new(1.0, zero, zero));
             assert!(!b.hit_by(&r, f32::INFINITY));
             // Grazing: exactly on the y = 1 and z = 0 faces (0 * inf = NaN on those axes).
             let r = prepared(Vec3::new(-1.0, 1.0, 0.0), Vec3::new(1.0, zero, zero));

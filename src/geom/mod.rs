@@ -6,4 +6,7 @@ pub mod triangle;
 
 pub use aabb::Aabb;
 pub use ray::{PreparedRay, Ray, RayError, octant};
-pub use triangle::{Kernel, MollerTrumbore, TriangleHit, TriangleTest, Watertight, is_degenerate};
+pub use triangle::{
+    Kernel, KernelTask, MollerTrumbore, TriangleHit, TriangleTest, Watertight, WatertightAxis,
+    is_degenerate,
+};

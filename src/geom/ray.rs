@@ -7,7 +7,7 @@
 //! Queries never panic on a bad ray: a ray whose origin or direction is NaN or infinite, whose
 //! direction is zero, or whose range is empty or NaN misses everything. [`Ray::validate`] says why.
 
-use glam::Vec3;
+use glam::{BVec3A, Vec3, Vec3A};
 
 /// A ray `origin + t * dir` for `t` in `[tmin, tmax]`.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -131,11 +131,14 @@ pub struct PreparedRay {
     pub inv_dir: Vec3,
     pub tmin: f32,
     pub tmax: f32,
+    /// `origin`, `inv_dir` and the direction's sign bits in SIMD-friendly form for the box test.
+    pub origin_a: Vec3A,
+    pub inv_dir_a: Vec3A,
+    pub negative: BVec3A,
     /// `1 << octant(dir)`: ANDed with a node's ordering byte to pick the child visited first.
     pub octant_mask: u8,
-    /// Watertight kernel: the axis of largest `|dir|` (z after permutation), and the other two.
-    pub kx: usize,
-    pub ky: usize,
+    /// Watertight kernel: the axis of largest `|dir|`, which becomes z after the shear;
+    /// x and y are the next two axes cyclically (`kx = (kz + 1) % 3`, `ky = (kz + 2) % 3`).
     pub kz: usize,
     /// Watertight kernel: shear constants `dir[kx]/dir[kz]`, `dir[ky]/dir[kz]`, `1/dir[kz]`.
     pub shear: Vec3,
@@ -154,22 +157,26 @@ impl PreparedRay {
         } else {
             2
         };
-        let mut kx = (kz + 1) % 3;
-        let mut ky = (kx + 1) % 3;
-        // Keep the winding of the projected triangle independent of the ray's direction sign.
-        if dir[kz] < 0.0 {
-            std::mem::swap(&mut kx, &mut ky);
-        }
+        // Woop et al. swap kx and ky when dir[kz] < 0 to keep the projected winding; since both
+        // windings are accepted, that swap only negates U, V, W, det and T exactly, leaving
+        // t, u, v bit-identical, so it is skipped and the axes depend on kz alone.
+        let (kx, ky) = ((kz + 1) % 3, (kz + 2) % 3);
         let shear = Vec3::new(dir[kx] / dir[kz], dir[ky] / dir[kz], 1.0 / dir[kz]);
+        let inv_dir = Vec3::ONE / dir;
         Some(Self {
             origin: ray.origin,
             dir,
-            inv_dir: Vec3::ONE / dir,
+            inv_dir,
+            origin_a: ray.origin.into(),
+            inv_dir_a: inv_dir.into(),
+            negative: BVec3A::new(
+                dir.x.is_sign_negative(),
+                dir.y.is_sign_negative(),
+                dir.z.is_sign_negative(),
+            ),
             tmin: ray.tmin,
             tmax: ray.tmax,
             octant_mask: 1u8 << octant(dir),
-            kx,
-            ky,
             kz,
             shear,
         })

@@ -56,6 +56,26 @@ impl Kernel {
     }
 }
 
+/// Work to run with a kernel chosen at compile time (see [`Kernel::dispatch`]).
+pub trait KernelTask {
+    type Output;
+    fn run<K: TriangleTest>(self) -> Self::Output;
+}
+
+impl Kernel {
+    /// Runs `task` monomorphized for this kernel and, for the watertight kernel, for the ray's
+    /// dominant axis `kz` (so the axis permutation costs nothing in the inner loop).
+    #[inline(always)]
+    pub fn dispatch<T: KernelTask>(self, kz: usize, task: T) -> T::Output {
+        match (self, kz) {
+            (Kernel::Watertight, 0) => task.run::<WatertightAxis<0>>(),
+            (Kernel::Watertight, 1) => task.run::<WatertightAxis<1>>(),
+            (Kernel::Watertight, _) => task.run::<WatertightAxis<2>>(),
+            (Kernel::MollerTrumbore, _) => task.run::<MollerTrumbore>(),
+        }
+    }
+}
+
 /// The watertight kernel (see the module docs).
 #[derive(Clone, Copy, Debug, Default)]
 pub struct Watertight;
@@ -65,12 +85,30 @@ pub struct Watertight;
 pub struct MollerTrumbore;
 
 impl TriangleTest for Watertight {
+    /// Dispatches on the ray's dominant axis; traversal loops call [`WatertightAxis`] directly
+    /// so that the axis permutation is resolved at compile time.
     #[inline(always)]
     fn intersect(ray: &PreparedRay, tri: &[Vec3; 3], tmax: f32) -> Option<TriangleHit> {
-        let (kx, ky, kz) = (ray.kx, ray.ky, ray.kz);
-        let a = tri[0] - ray.origin;
-        let b = tri[1] - ray.origin;
-        let c = tri[2] - ray.origin;
+        match ray.kz {
+            0 => WatertightAxis::<0>::intersect(ray, tri, tmax),
+            1 => WatertightAxis::<1>::intersect(ray, tri, tmax),
+            _ => WatertightAxis::<2>::intersect(ray, tri, tmax),
+        }
+    }
+}
+
+/// The watertight kernel for rays whose dominant axis is `KZ` (`ray.kz` must equal `KZ`).
+#[derive(Clone, Copy, Debug, Default)]
+pub struct WatertightAxis<const KZ: usize>;
+
+impl<const KZ: usize> TriangleTest for WatertightAxis<KZ> {
+    #[inline(always)]
+    fn intersect(ray: &PreparedRay, tri: &[Vec3; 3], tmax: f32) -> Option<TriangleHit> {
+        debug_assert_eq!(ray.kz, KZ);
+        let (kx, ky, kz) = ((KZ + 1) % 3, (KZ + 2) % 3, KZ);
+        let a = (tri[0] - ray.origin).to_array();
+        let b = (tri[1] - ray.origin).to_array();
+        let c = (tri[2] - ray.origin).to_array();
         // Shear and project onto the plane perpendicular to the ray.
         let (sx, sy, sz) = (ray.shear.x, ray.shear.y, ray.shear.z);
         let ax = a[kx] - sx * a[kz];
@@ -83,12 +121,7 @@ impl TriangleTest for Watertight {
         let mut v = ax * cy - ay * cx;
         let mut w = bx * ay - by * ax;
         if u == 0.0 || v == 0.0 || w == 0.0 {
-            let (ax, ay, bx, by, cx, cy) = (
-                ax as f64, ay as f64, bx as f64, by as f64, cx as f64, cy as f64,
-            );
-            u = (cx * by - cy * bx) as f32;
-            v = (ax * cy - ay * cx) as f32;
-            w = (bx * ay - by * ax) as f32;
+            (u, v, w) = edge_functions_f64([ax, ay, bx, by, cx, cy]);
         }
         if (u < 0.0 || v < 0.0 || w < 0.0) && (u > 0.0 || v > 0.0 || w > 0.0) {
             return None;
@@ -99,8 +132,7 @@ impl TriangleTest for Watertight {
         }
         let t_scaled = u * (sz * a[kz]) + v * (sz * b[kz]) + w * (sz * c[kz]);
         let t = t_scaled / det;
-        // `!(t >= tmin)` rather than `t < tmin` so that a NaN t is a miss.
-        if !(t >= ray.tmin && t <= tmax) {
+        if !in_range(t, ray.tmin, tmax) {
             return None;
         }
         Some(TriangleHit {
@@ -109,6 +141,24 @@ impl TriangleTest for Watertight {
             v: w / det,
         })
     }
+}
+
+/// The edge functions recomputed in `f64`, where the products of `f32` values are exact, so
+/// their signs are exact on edges and vertices.
+#[cold]
+fn edge_functions_f64(p: [f32; 6]) -> (f32, f32, f32) {
+    let [ax, ay, bx, by, cx, cy] = p.map(f64::from);
+    (
+        (cx * by - cy * bx) as f32,
+        (ax * cy - ay * cx) as f32,
+        (bx * ay - by * ax) as f32,
+    )
+}
+
+/// `tmin <= t <= tmax` with a finite `t`; written so that a NaN `t` is out of range.
+#[inline(always)]
+fn in_range(t: f32, tmin: f32, tmax: f32) -> bool {
+    t >= tmin && t <= tmax && t < f32::INFINITY
 }
 
 impl TriangleTest for MollerTrumbore {
@@ -133,7 +183,7 @@ impl TriangleTest for MollerTrumbore {
             return None;
         }
         let t = e2.dot(q) * inv_det;
-        if !(t >= ray.tmin && t <= tmax) {
+        if !in_range(t, ray.tmin, tmax) {
             return None;
         }
         Some(TriangleHit { t, u, v })

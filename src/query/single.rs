@@ -1,28 +1,56 @@
 //! Single-ray traversal, the reference every other engine must match bit for bit.
 //!
 //! A depth-first loop with a fixed-size stack (trees are at most
-//! [`crate::tree::build::MAX_DEPTH`] deep, so it cannot overflow): pop a node, test its box
-//! against the ray clipped to the best hit so far, test its triangles, push its children with
-//! the nearer one (by the precomputed ordering byte) on top.
+//! [`crate::tree::build::MAX_DEPTH`] deep, so it cannot overflow). At an internal node both
+//! children's boxes are tested; if both are touched, the one the precomputed ordering byte
+//! names as nearer is visited now and the other is pushed with its entry distance, so that a
+//! later pop can drop it without refetching it if the best hit has moved in front of it.
+//! Entry distances are compared with `<=`: a box entered exactly at the best `t` may still hold
+//! an equal-`t` triangle with a lower id (the tie rule of [`crate::query`]).
 
-use crate::geom::{Kernel, MollerTrumbore, PreparedRay, Ray, TriangleTest, Watertight};
+use crate::geom::{Kernel, KernelTask, PreparedRay, Ray, TriangleTest};
 use crate::query::Hit;
 use crate::tree::build::MAX_DEPTH;
 use crate::tree::ordering::second_child_first;
 use crate::tree::{Bvh, NodeView};
 
-/// Stack entries needed: at most one pending sibling per level, plus the node being expanded.
+/// Stack entries needed: at most one pending sibling per level.
 const STACK_SIZE: usize = MAX_DEPTH + 2;
 
-/// What the traversal loop does with each triangle hit.
-trait Visitor {
+/// What the traversal does with each triangle hit.
+pub(crate) trait Visitor {
     /// Called with each hit in range; returns true to stop the traversal.
     fn visit(&mut self, hit: Hit) -> bool;
     /// The current upper end of the ray's range.
     fn tmax(&self) -> f32;
 }
 
-/// Runs `visitor` over the tree, with kernel `K`.
+/// Tests a node's triangles; true if the visitor asked to stop.
+#[inline(always)]
+fn visit_triangles<B, K, V>(tree: &B, node: &NodeView, ray: &PreparedRay, visitor: &mut V) -> bool
+where
+    B: Bvh + ?Sized,
+    K: TriangleTest,
+    V: Visitor,
+{
+    for slot in node.first..node.first + node.count {
+        let (id, tri) = tree.triangle(slot);
+        if let Some(h) = K::intersect(ray, &tri, visitor.tmax()) {
+            let hit = Hit {
+                t: h.t,
+                triangle: id,
+                u: h.u,
+                v: h.v,
+            };
+            if visitor.visit(hit) {
+                return true;
+            }
+        }
+    }
+    false
+}
+
+/// Runs `visitor` over every triangle the ray may hit, with kernel `K`.
 #[inline(always)]
 fn traverse<B, K, V>(tree: &B, ray: &PreparedRay, visitor: &mut V)
 where
@@ -33,44 +61,105 @@ where
     if tree.node_count() == 0 {
         return;
     }
-    let mut stack = [0u32; STACK_SIZE];
-    let mut len = 1;
-    while len > 0 {
-        len -= 1;
-        let node: NodeView = tree.node(stack[len]);
-        if !node.bounds.hit_by(ray, visitor.tmax()) {
-            continue;
-        }
-        for slot in node.first..node.first + node.count {
-            let (id, tri) = tree.triangle(slot);
-            if let Some(h) = K::intersect(ray, &tri, visitor.tmax()) {
-                let hit = Hit {
-                    t: h.t,
-                    triangle: id,
-                    u: h.u,
-                    v: h.v,
-                };
-                if visitor.visit(hit) {
-                    return;
-                }
-            }
+    let mut node = tree.node(0);
+    if node.bounds.entry(ray, visitor.tmax()) == f32::INFINITY {
+        return;
+    }
+    let mut stack = [(0u32, 0.0f32); STACK_SIZE];
+    let mut len = 0;
+    loop {
+        if visit_triangles::<B, K, V>(tree, &node, ray, visitor) {
+            return;
         }
         if node.first_child != 0 {
-            let second_first = second_child_first(node.order, ray.octant_mask);
-            let (near, far) = if second_first {
-                (node.first_child + 1, node.first_child)
+            let c = node.first_child;
+            let (near, far) = if second_child_first(node.order, ray.octant_mask) {
+                (c + 1, c)
             } else {
-                (node.first_child, node.first_child + 1)
+                (c, c + 1)
             };
-            stack[len] = far;
-            stack[len + 1] = near;
-            len += 2;
+            let (near_node, far_node) = (tree.node(near), tree.node(far));
+            let tmax = visitor.tmax();
+            let near_entry = near_node.bounds.entry(ray, tmax);
+            let far_entry = far_node.bounds.entry(ray, tmax);
+            match (near_entry < f32::INFINITY, far_entry < f32::INFINITY) {
+                (true, true) => {
+                    stack[len] = (far, far_entry);
+                    len += 1;
+                    node = near_node;
+                    continue;
+                }
+                (true, false) => {
+                    node = near_node;
+                    continue;
+                }
+                (false, true) => {
+                    node = far_node;
+                    continue;
+                }
+                (false, false) => {}
+            }
+        }
+        // Pop the next pending node that is still in front of the best hit.
+        loop {
+            if len == 0 {
+                return;
+            }
+            len -= 1;
+            let (index, entry) = stack[len];
+            if entry <= visitor.tmax() {
+                node = tree.node(index);
+                break;
+            }
         }
     }
 }
 
-struct Closest {
-    best: Hit,
+/// [`traverse`] packaged for [`Kernel::dispatch`].
+struct Traversal<'a, B: ?Sized, V> {
+    tree: &'a B,
+    ray: &'a PreparedRay,
+    visitor: &'a mut V,
+}
+
+impl<B: Bvh + ?Sized, V: Visitor> KernelTask for Traversal<'_, B, V> {
+    type Output = ();
+    #[inline(always)]
+    fn run<K: TriangleTest>(self) {
+        traverse::<B, K, V>(self.tree, self.ray, self.visitor)
+    }
+}
+
+/// Runs `visitor` with `kernel`, monomorphized for the ray's dominant axis.
+pub(crate) fn run<B: Bvh + ?Sized, V: Visitor>(
+    tree: &B,
+    ray: &PreparedRay,
+    kernel: Kernel,
+    visitor: &mut V,
+) {
+    kernel.dispatch(ray.kz, Traversal { tree, ray, visitor })
+}
+
+/// Keeps the best hit by the tie rule.
+pub(crate) struct Closest {
+    pub best: Hit,
+}
+
+impl Closest {
+    pub fn new(tmax: f32) -> Self {
+        Self {
+            best: Hit {
+                t: tmax,
+                triangle: u32::MAX,
+                u: 0.0,
+                v: 0.0,
+            },
+        }
+    }
+
+    pub fn result(&self) -> Option<Hit> {
+        (self.best.triangle != u32::MAX).then_some(self.best)
+    }
 }
 
 impl Visitor for Closest {
@@ -87,9 +176,10 @@ impl Visitor for Closest {
     }
 }
 
-struct Any {
-    tmax: f32,
-    found: bool,
+/// Stops at the first hit.
+pub(crate) struct Any {
+    pub tmax: f32,
+    pub found: bool,
 }
 
 impl Visitor for Any {
@@ -104,9 +194,10 @@ impl Visitor for Any {
     }
 }
 
-struct Every<F> {
-    tmax: f32,
-    f: F,
+/// Reports every hit.
+pub(crate) struct Every<F> {
+    pub tmax: f32,
+    pub f: F,
 }
 
 impl<F: FnMut(Hit)> Visitor for Every<F> {
@@ -121,46 +212,6 @@ impl<F: FnMut(Hit)> Visitor for Every<F> {
     }
 }
 
-/// Closest hit with kernel `K`; see [`crate::query`] for the tie rule.
-pub fn closest_with<B: Bvh + ?Sized, K: TriangleTest>(tree: &B, ray: &Ray) -> Option<Hit> {
-    let prepared = PreparedRay::new(ray)?;
-    let mut v = Closest {
-        best: Hit {
-            t: prepared.tmax,
-            triangle: u32::MAX,
-            u: 0.0,
-            v: 0.0,
-        },
-    };
-    traverse::<B, K, _>(tree, &prepared, &mut v);
-    (v.best.triangle != u32::MAX).then_some(v.best)
-}
-
-/// True if some triangle is hit within the ray's range, with kernel `K`.
-pub fn any_with<B: Bvh + ?Sized, K: TriangleTest>(tree: &B, ray: &Ray) -> bool {
-    let Some(prepared) = PreparedRay::new(ray) else {
-        return false;
-    };
-    let mut v = Any {
-        tmax: prepared.tmax,
-        found: false,
-    };
-    traverse::<B, K, _>(tree, &prepared, &mut v);
-    v.found
-}
-
-/// Calls `f` for every hit within the ray's range (in traversal order), with kernel `K`.
-pub fn each_with<B: Bvh + ?Sized, K: TriangleTest>(tree: &B, ray: &Ray, f: impl FnMut(Hit)) {
-    let Some(prepared) = PreparedRay::new(ray) else {
-        return;
-    };
-    let mut v = Every {
-        tmax: prepared.tmax,
-        f,
-    };
-    traverse::<B, K, _>(tree, &prepared, &mut v);
-}
-
 /// The single-ray queries, for every [`Bvh`].
 pub trait RayQueries: Bvh {
     /// The closest hit (watertight kernel), or `None`. Invalid rays miss (see
@@ -171,10 +222,10 @@ pub trait RayQueries: Bvh {
 
     /// [`RayQueries::cast_ray`] with a chosen kernel.
     fn cast_ray_with(&self, ray: &Ray, kernel: Kernel) -> Option<Hit> {
-        match kernel {
-            Kernel::Watertight => closest_with::<Self, Watertight>(self, ray),
-            Kernel::MollerTrumbore => closest_with::<Self, MollerTrumbore>(self, ray),
-        }
+        let prepared = PreparedRay::new(ray)?;
+        let mut closest = Closest::new(prepared.tmax);
+        run(self, &prepared, kernel, &mut closest);
+        closest.result()
     }
 
     /// True if the ray hits anything in `[tmin, tmax]` (line of sight is `!occluded` of a
@@ -185,18 +236,35 @@ pub trait RayQueries: Bvh {
 
     /// [`RayQueries::occluded`] with a chosen kernel.
     fn occluded_with(&self, ray: &Ray, kernel: Kernel) -> bool {
-        match kernel {
-            Kernel::Watertight => any_with::<Self, Watertight>(self, ray),
-            Kernel::MollerTrumbore => any_with::<Self, MollerTrumbore>(self, ray),
-        }
+        let Some(prepared) = PreparedRay::new(ray) else {
+            return false;
+        };
+        let mut any = Any {
+            tmax: prepared.tmax,
+            found: false,
+        };
+        run(self, &prepared, kernel, &mut any);
+        any.found
     }
 
-    /// Calls `f` once per triangle hit in `[tmin, tmax]`, in no particular order.
+    /// Calls `f` once per triangle hit in `[tmin, tmax]`, in no particular order (watertight).
     fn for_each_hit(&self, ray: &Ray, f: impl FnMut(Hit)) {
-        each_with::<Self, Watertight>(self, ray, f)
+        self.for_each_hit_with(ray, Kernel::Watertight, f)
     }
 
-    /// Every hit, sorted by `t` then triangle id.
+    /// [`RayQueries::for_each_hit`] with a chosen kernel.
+    fn for_each_hit_with(&self, ray: &Ray, kernel: Kernel, f: impl FnMut(Hit)) {
+        let Some(prepared) = PreparedRay::new(ray) else {
+            return;
+        };
+        let mut every = Every {
+            tmax: prepared.tmax,
+            f,
+        };
+        run(self, &prepared, kernel, &mut every);
+    }
+
+    /// Every hit, sorted by `t` then triangle id (watertight).
     fn all_hits(&self, ray: &Ray) -> Vec<Hit> {
         let mut hits = Vec::new();
         self.for_each_hit(ray, |h| hits.push(h));
