@@ -25,11 +25,13 @@ pub mod geom;
 pub mod mesh;
 pub mod obj;
 pub mod query;
+pub mod scenes;
 pub mod tree;
 
 pub use geom::{Aabb, Kernel, Ray, RayError};
 pub use glam;
 pub use mesh::{Mesh, MeshError};
 pub use query::Hit;
+pub use query::batch::{BatchError, BatchOptions, BatchOrdering, BatchQueries};
 pub use query::single::RayQueries;
 pub use tree::{AabbTree, BuildError, BuildOptions, Bvh, ChildOrdering, QuantizedAabbTree};

@@ -11,6 +11,7 @@
 //! best `t` (they may hold an equal-`t` triangle with a lower id) and accepts a triangle hit
 //! when `(t, id)` is lexicographically smaller than the best so far.
 
+pub mod batch;
 pub mod brute_force;
 pub mod single;
 

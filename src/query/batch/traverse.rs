@@ -1,0 +1,125 @@
+//! One group of rays down the tree, once (seed 001).
+//!
+//! An explicit stack holds `(node, count)`: the rays in lanes `start..start + count` are the
+//! ones that reached the node's parent. At each node the box is fetched (or dequantized) once,
+//! tested against all of them, and the ones that touch it are moved to the front; only that
+//! prefix goes on to the node's triangles and children. Each triangle is loaded once and tested
+//! against every surviving ray. A child's partition only reorders the prefix it was given, so
+//! when the second child is popped the prefix still holds the same set of rays.
+//!
+//! All rays of a group share the octant (when grouped by octant) so the node's ordering byte
+//! applies to the whole group. The kernel `K` is the very function the single-ray path runs:
+//! results are bit-identical.
+
+use super::lanes::Lanes;
+use crate::geom::{PreparedRay, TriangleTest};
+use crate::query::Hit;
+use crate::tree::Bvh;
+use crate::tree::ordering::second_child_first;
+
+/// What a batched query does with each triangle hit.
+pub(crate) trait LaneVisitor {
+    /// Called for a hit of ray `id` (current range end `*tmax`); may shrink `*tmax` (closest
+    /// hit) or set it to `-inf` to retire the ray (any hit).
+    fn visit(&mut self, id: u32, hit: Hit, tmax: &mut f32);
+}
+
+/// Runs the rays in `lanes[start..end]` through the tree. `octant_mask` orders children (0 for
+/// the fixed order); `stack` is reusable scratch.
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn traverse_group<B, K, V>(
+    tree: &B,
+    lanes: &mut Lanes,
+    start: usize,
+    end: usize,
+    prepared: &[PreparedRay],
+    octant_mask: u8,
+    stack: &mut Vec<(u32, u32)>,
+    visitor: &mut V,
+) where
+    B: Bvh + ?Sized,
+    K: TriangleTest,
+    V: LaneVisitor,
+{
+    if tree.node_count() == 0 || start == end {
+        return;
+    }
+    stack.clear();
+    stack.push((0, (end - start) as u32));
+    while let Some((index, count)) = stack.pop() {
+        let node = tree.node(index);
+        let active = lanes.partition(&node.bounds, start, start + count as usize);
+        if active == 0 {
+            continue;
+        }
+        for slot in node.first..node.first + node.count {
+            let (triangle, corners) = tree.triangle(slot);
+            for lane in &mut lanes.lanes[start..start + active] {
+                let id = lane.id;
+                let ray = &prepared[id as usize];
+                let tmax = &mut lane.tmax;
+                if let Some(h) = K::intersect(ray, &corners, *tmax) {
+                    let hit = Hit {
+                        t: h.t,
+                        triangle,
+                        u: h.u,
+                        v: h.v,
+                    };
+                    visitor.visit(id, hit, tmax);
+                }
+            }
+        }
+        if node.first_child != 0 {
+            let c = node.first_child;
+            let (near, far) = if second_child_first(node.order, octant_mask) {
+                (c + 1, c)
+            } else {
+                (c, c + 1)
+            };
+            stack.push((far, active as u32));
+            stack.push((near, active as u32));
+        }
+    }
+}
+
+/// Keeps each ray's best hit by the tie rule; `best[id].triangle == u32::MAX` means no hit yet.
+pub(crate) struct ClosestLanes<'a> {
+    pub best: &'a mut [Hit],
+}
+
+impl LaneVisitor for ClosestLanes<'_> {
+    #[inline(always)]
+    fn visit(&mut self, id: u32, hit: Hit, tmax: &mut f32) {
+        let best = &mut self.best[id as usize];
+        if hit.is_before(best) {
+            *best = hit;
+            *tmax = hit.t;
+        }
+    }
+}
+
+/// Marks a ray occluded and retires it.
+pub(crate) struct AnyLanes<'a> {
+    pub occluded: &'a mut [bool],
+}
+
+impl LaneVisitor for AnyLanes<'_> {
+    #[inline(always)]
+    fn visit(&mut self, id: u32, _: Hit, tmax: &mut f32) {
+        self.occluded[id as usize] = true;
+        *tmax = f32::NEG_INFINITY;
+    }
+}
+
+/// Reports every hit with the ray's index in the whole batch.
+pub(crate) struct EveryLane<'a, F> {
+    pub offset: usize,
+    pub f: &'a F,
+}
+
+impl<F: Fn(usize, Hit)> LaneVisitor for EveryLane<'_, F> {
+    #[inline(always)]
+    fn visit(&mut self, id: u32, hit: Hit, _: &mut f32) {
+        (self.f)(self.offset + id as usize, hit);
+    }
+}
