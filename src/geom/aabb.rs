@@ -110,10 +110,13 @@ impl Aabb {
 #[inline(always)]
 pub fn box_entry(min: Vec3, max: Vec3, ray: &PreparedRay, tmax: f32) -> f32 {
     let (min, max) = (Vec3A::from(min), Vec3A::from(max));
-    let near_plane = Vec3A::select(ray.negative, max, min);
-    let far_plane = Vec3A::select(ray.negative, min, max);
-    let enter = (near_plane - ray.origin_a) * ray.inv_dir_a;
-    let exit = (far_plane - ray.origin_a) * ray.inv_dir_a * EXIT_SCALE;
+    let (origin, inv_dir) = (Vec3A::from(ray.origin), Vec3A::from(ray.inv_dir));
+    // 1/+-0 = +-inf, so the sign of `inv_dir` is the sign bit of the direction.
+    let negative = inv_dir.cmplt(Vec3A::ZERO);
+    let near_plane = Vec3A::select(negative, max, min);
+    let far_plane = Vec3A::select(negative, min, max);
+    let enter = (near_plane - origin) * inv_dir;
+    let exit = (far_plane - origin) * inv_dir * EXIT_SCALE;
     let lo = Vec3A::splat(ray.tmin);
     // Hits have finite `t`, so an infinite entry (a parallel ray below a slab) is a miss.
     let hi = Vec3A::splat(tmax.min(f32::MAX));

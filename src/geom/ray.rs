@@ -7,7 +7,7 @@
 //! Queries never panic on a bad ray: a ray whose origin or direction is NaN or infinite, whose
 //! direction is zero, or whose range is empty or NaN misses everything. [`Ray::validate`] says why.
 
-use glam::{BVec3A, Vec3, Vec3A};
+use glam::Vec3;
 
 /// A ray `origin + t * dir` for `t` in `[tmin, tmax]`.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -131,15 +131,11 @@ pub struct PreparedRay {
     pub inv_dir: Vec3,
     pub tmin: f32,
     pub tmax: f32,
-    /// `origin`, `inv_dir` and the direction's sign bits in SIMD-friendly form for the box test.
-    pub origin_a: Vec3A,
-    pub inv_dir_a: Vec3A,
-    pub negative: BVec3A,
     /// `1 << octant(dir)`: ANDed with a node's ordering byte to pick the child visited first.
     pub octant_mask: u8,
     /// Watertight kernel: the axis of largest `|dir|`, which becomes z after the shear;
     /// x and y are the next two axes cyclically (`kx = (kz + 1) % 3`, `ky = (kz + 2) % 3`).
-    pub kz: usize,
+    pub kz: u8,
     /// Watertight kernel: shear constants `dir[kx]/dir[kz]`, `dir[ky]/dir[kz]`, `1/dir[kz]`.
     pub shear: Vec3,
 }
@@ -167,17 +163,10 @@ impl PreparedRay {
             origin: ray.origin,
             dir,
             inv_dir,
-            origin_a: ray.origin.into(),
-            inv_dir_a: inv_dir.into(),
-            negative: BVec3A::new(
-                dir.x.is_sign_negative(),
-                dir.y.is_sign_negative(),
-                dir.z.is_sign_negative(),
-            ),
             tmin: ray.tmin,
             tmax: ray.tmax,
             octant_mask: 1u8 << octant(dir),
-            kz,
+            kz: kz as u8,
             shear,
         })
     }

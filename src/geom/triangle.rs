@@ -104,7 +104,7 @@ pub struct WatertightAxis<const KZ: usize>;
 impl<const KZ: usize> TriangleTest for WatertightAxis<KZ> {
     #[inline(always)]
     fn intersect(ray: &PreparedRay, tri: &[Vec3; 3], tmax: f32) -> Option<TriangleHit> {
-        debug_assert_eq!(ray.kz, KZ);
+        debug_assert_eq!(ray.kz as usize, KZ);
         let (kx, ky, kz) = ((KZ + 1) % 3, (KZ + 2) % 3, KZ);
         let a = (tri[0] - ray.origin).to_array();
         let b = (tri[1] - ray.origin).to_array();

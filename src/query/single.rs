@@ -137,7 +137,7 @@ pub(crate) fn run<B: Bvh + ?Sized, V: Visitor>(
     kernel: Kernel,
     visitor: &mut V,
 ) {
-    kernel.dispatch(ray.kz, Traversal { tree, ray, visitor })
+    kernel.dispatch(ray.kz as usize, Traversal { tree, ray, visitor })
 }
 
 /// Keeps the best hit by the tie rule.

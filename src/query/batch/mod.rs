@@ -3,7 +3,8 @@
 //! Rays are prepared once, grouped by direction octant with a counting sort, and each
 //! group is traversed with move-to-front partitioning ([`traverse`]): every node's box is
 //! fetched, dequantized or recomputed once per group, every leaf triangle loaded once per
-//! group, and the box test streams over compact 32-byte lanes ([`lanes`]). Grouping by octant lets the precomputed child order (PNS) apply to the whole
+//! group, and the box test runs over structure-of-arrays lanes ([`lanes`]) with SIMD across
+//! rays ([`partition`]: AVX-512, AVX2 or portable, chosen at run time). Grouping by octant lets the precomputed child order (PNS) apply to the whole
 //! group. The triangle kernels are the very functions the single-ray path runs.
 //!
 //! Large batches are split into chunks processed by rayon (in whatever pool is current: wrap a
@@ -18,6 +19,7 @@
 //! outcome.
 
 pub(crate) mod lanes;
+pub mod partition;
 pub(crate) mod traverse;
 
 use std::cell::RefCell;
@@ -31,6 +33,7 @@ use crate::query::Hit;
 use crate::query::single::RayQueries;
 use crate::tree::Bvh;
 use lanes::Lanes;
+pub use partition::PartitionKernel;
 use traverse::{AnyLanes, ClosestLanes, EveryLane, LaneVisitor, traverse_group};
 
 /// How rays of one batch are grouped so that node ordering applies.
@@ -65,6 +68,9 @@ pub struct BatchOptions {
     pub min_batch: usize,
     /// Smallest chunk handed to one rayon task.
     pub min_chunk: usize,
+    /// Implementation of the box test over many rays ([`PartitionKernel::detect`] by
+    /// default); all give identical results.
+    pub partition: PartitionKernel,
 }
 
 impl Default for BatchOptions {
@@ -75,6 +81,7 @@ impl Default for BatchOptions {
             parallel: true,
             min_batch: 32,
             min_chunk: 4096,
+            partition: PartitionKernel::detect(),
         }
     }
 }
@@ -98,6 +105,10 @@ impl BatchOptions {
     }
     pub fn with_min_chunk(mut self, min_chunk: usize) -> Self {
         self.min_chunk = min_chunk.max(1);
+        self
+    }
+    pub fn with_partition(mut self, partition: PartitionKernel) -> Self {
+        self.partition = partition;
         self
     }
 }
@@ -136,7 +147,6 @@ struct Scratch {
     lanes: Lanes,
     stack: Vec<(u32, u32)>,
     best: Vec<Hit>,
-    order: Vec<u32>,
     keys: Vec<u8>,
 }
 
@@ -155,46 +165,36 @@ fn with_scratch<R>(f: impl FnOnce(&mut Scratch) -> R) -> R {
 /// Number of groups: the 8 octants (a single group when unordered).
 const GROUPS: usize = 8;
 
-/// Prepares the chunk's rays and fills the lanes grouped by (octant, dominant axis); returns
-/// where each group starts (entry `g`..`g + 1`).
+/// Prepares the chunk's rays and fills the lanes grouped by octant (one group when unordered)
+/// with a counting sort; returns where each group starts (group `g` is lanes
+/// `starts[g]..starts[g + 1]`). Invalid rays get no lane: they miss.
 fn prepare_groups(rays: &[Ray], ordering: BatchOrdering, s: &mut Scratch) -> [usize; GROUPS + 1] {
     s.prepared.clear();
     s.keys.clear();
-    let mut counts = [0usize; GROUPS];
+    let mut counts = [0usize; GROUPS + 1];
     for ray in rays {
-        // Invalid rays get a key past the last group: they never enter the lanes and miss.
         let (prepared, key) = match PreparedRay::new(ray) {
-            Some(p) => {
-                let octant = match ordering {
-                    BatchOrdering::ByOctant => p.octant_mask.trailing_zeros() as usize,
-                    BatchOrdering::Unordered => 0,
-                };
-                (p, octant)
-            }
-            None => (placeholder(), GROUPS),
+            Some(p) => match ordering {
+                BatchOrdering::ByOctant => (p, p.octant_mask.trailing_zeros() as u8),
+                BatchOrdering::Unordered => (p, 0),
+            },
+            None => (placeholder(), GROUPS as u8),
         };
-        if key < GROUPS {
-            counts[key] += 1;
-        }
+        counts[key as usize] += 1;
         s.prepared.push(prepared);
-        s.keys.push(key as u8);
+        s.keys.push(key);
     }
     let mut starts = [0usize; GROUPS + 1];
     for g in 0..GROUPS {
         starts[g + 1] = starts[g] + counts[g];
     }
     let mut next = starts;
-    s.order.clear();
-    s.order.resize(starts[GROUPS], 0);
-    for (id, &key) in s.keys.iter().enumerate() {
-        if (key as usize) < GROUPS {
-            s.order[next[key as usize]] = id as u32;
-            next[key as usize] += 1;
+    s.lanes.reset(starts[GROUPS]);
+    for (id, (&key, prepared)) in s.keys.iter().zip(&s.prepared).enumerate() {
+        if let Some(lane) = next.get_mut(key as usize).filter(|_| (key as usize) < GROUPS) {
+            s.lanes.set(*lane, prepared, id as u32);
+            *lane += 1;
         }
-    }
-    s.lanes.clear();
-    for &id in &s.order {
-        s.lanes.push(&s.prepared[id as usize], id);
     }
     starts
 }
@@ -211,6 +211,7 @@ struct GroupTask<'a, B: ?Sized, V> {
     start: usize,
     end: usize,
     octant_mask: u8,
+    partition: PartitionKernel,
     visitor: &'a mut V,
 }
 
@@ -225,6 +226,7 @@ impl<B: Bvh + ?Sized, V: LaneVisitor> KernelTask for GroupTask<'_, B, V> {
             self.end,
             &s.prepared,
             self.octant_mask,
+            self.partition,
             &mut s.stack,
             self.visitor,
         );
@@ -254,6 +256,7 @@ fn run_groups<B: Bvh + ?Sized, V: LaneVisitor>(
             start,
             end,
             octant_mask,
+            partition: options.partition,
             visitor: &mut *visitor,
         };
         // Rays of a group have different dominant axes, so the watertight kernel dispatches

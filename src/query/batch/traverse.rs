@@ -12,6 +12,7 @@
 //! results are bit-identical.
 
 use super::lanes::Lanes;
+use super::partition::{PartitionKernel, partition};
 use crate::geom::{PreparedRay, TriangleTest};
 use crate::query::Hit;
 use crate::tree::Bvh;
@@ -34,6 +35,7 @@ pub(crate) fn traverse_group<B, K, V>(
     end: usize,
     prepared: &[PreparedRay],
     octant_mask: u8,
+    partition_kernel: PartitionKernel,
     stack: &mut Vec<(u32, u32)>,
     visitor: &mut V,
 ) where
@@ -48,24 +50,30 @@ pub(crate) fn traverse_group<B, K, V>(
     stack.push((0, (end - start) as u32));
     while let Some((index, count)) = stack.pop() {
         let node = tree.node(index);
-        let active = lanes.partition(&node.bounds, start, start + count as usize);
+        let active = partition(
+            partition_kernel,
+            lanes,
+            &node.bounds,
+            start,
+            start + count as usize,
+        );
         if active == 0 {
             continue;
         }
         for slot in node.first..node.first + node.count {
             let (triangle, corners) = tree.triangle(slot);
-            for lane in &mut lanes.lanes[start..start + active] {
-                let id = lane.id;
-                let ray = &prepared[id as usize];
-                let tmax = &mut lane.tmax;
-                if let Some(h) = K::intersect(ray, &corners, *tmax) {
+            for lane in start..start + active {
+                let id = lanes.id(lane);
+                let mut tmax = lanes.tmax(lane);
+                if let Some(h) = K::intersect(&prepared[id as usize], &corners, tmax) {
                     let hit = Hit {
                         t: h.t,
                         triangle,
                         u: h.u,
                         v: h.v,
                     };
-                    visitor.visit(id, hit, tmax);
+                    visitor.visit(id, hit, &mut tmax);
+                    lanes.set_tmax(lane, tmax);
                 }
             }
         }
