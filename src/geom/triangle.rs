@@ -15,10 +15,13 @@
 //! speed/accuracy trade-off can be measured; do not use it where leaks matter.
 //!
 //! Both kernels return `t` and barycentrics `u, v` with `p = (1 - u - v) * v0 + u * v1 + v * v2`,
-//! accept `tmin <= t <= tmax`, and never report a hit on a zero-area triangle.
+//! accept `tmin <= t <= tmax`, never report a hit on a zero-area triangle, and only report hits
+//! that agree with the conservative box test of the triangle's bounds (see
+//! [`agree_with_bounds`]), which is what lets every traversal order give the same answer.
 
 use glam::{DVec3, Vec3};
 
+use super::aabb::box_entry;
 use super::ray::PreparedRay;
 
 /// Where a ray meets one triangle: `p = (1 - u - v) * v0 + u * v1 + v * v2 = origin + t * dir`.
@@ -135,11 +138,16 @@ impl<const KZ: usize> TriangleTest for WatertightAxis<KZ> {
         if !in_range(t, ray.tmin, tmax) {
             return None;
         }
-        Some(TriangleHit {
-            t,
-            u: v / det,
-            v: w / det,
-        })
+        agree_with_bounds(
+            ray,
+            tri,
+            tmax,
+            TriangleHit {
+                t,
+                u: v / det,
+                v: w / det,
+            },
+        )
     }
 }
 
@@ -186,8 +194,37 @@ impl TriangleTest for MollerTrumbore {
         if !in_range(t, ray.tmin, tmax) {
             return None;
         }
-        Some(TriangleHit { t, u, v })
+        agree_with_bounds(ray, tri, tmax, TriangleHit { t, u, v })
     }
+}
+
+/// Makes a kernel hit consistent with the conservative box test, so that traversal can never
+/// cull a box holding a hit the kernel would report (which would make answers depend on the
+/// visiting order, and break the tie rule).
+///
+/// A kernel rounds its `t` and its edge tests on its own; the box test rounds differently. So a
+/// hit is kept only if the ray passes the slab test of the triangle's own bounding box, and its
+/// `t` is raised to at least the box's entry distance. The slab test is monotone in the box,
+/// and every tree box contains its triangles' boxes, so any box holding a reported hit passes
+/// the box test for every `tmax >= t`. Nothing the exact ray really hits is lost: the slab test
+/// never rejects a box the exact ray touches. The extra work runs on hits only.
+#[inline(always)]
+fn agree_with_bounds(
+    ray: &PreparedRay,
+    tri: &[Vec3; 3],
+    tmax: f32,
+    hit: TriangleHit,
+) -> Option<TriangleHit> {
+    let min = tri[0].min(tri[1]).min(tri[2]);
+    let max = tri[0].max(tri[1]).max(tri[2]);
+    let entry = box_entry(min, max, ray, tmax);
+    if entry == f32::INFINITY {
+        return None;
+    }
+    Some(TriangleHit {
+        t: hit.t.max(entry),
+        ..hit
+    })
 }
 
 /// True if the triangle has zero area as computed in `f64`: no kernel reports hits on it, and
