@@ -136,35 +136,3 @@ mod tests {
         assert!(t.min.y >= 0.0 && t.max.y <= 100.0);
     }
 }
-
-#[cfg(test)]
-mod tmp_stats {
-    use super::*;
-    use std::time::{Duration, Instant};
-
-    fn best<T>(f: impl Fn() -> T) -> Duration {
-        (0..7).map(|_| { let t = Instant::now(); std::hint::black_box(f()); t.elapsed() }).min().unwrap()
-    }
-
-    #[test]
-    #[ignore]
-    fn tmp_stats() {
-        eprintln!("baseline alloc 1M rays {:?}", best(|| vec![crate::Ray::new(glam::Vec3::ONE, glam::Vec3::X); 1_000_000]));
-        eprintln!("baseline 1M rng {:?}", best(|| { let mut r = SplitMix64::new(1); (0..1_000_000).map(|_| r.next_u64()).fold(0, |a, b| a ^ b) }));
-        eprintln!("seq cam-like {:?}", best(|| (0..1_000_000usize).map(|p| { let (r, c) = (p / 1000, p % 1000); let d = glam::Vec3::new(c as f32 * 0.001 - 0.5, 0.5 - r as f32 * 0.001, 1.0); crate::Ray::new(glam::Vec3::ZERO, d.normalize()) }).collect::<Vec<_>>()));
-        {
-            use rayon::prelude::*;
-            eprintln!("par cam-like {:?}", best(|| (0..1_000_000usize).into_par_iter().map(|p| { let (r, c) = (p / 1000, p % 1000); let d = glam::Vec3::new(c as f32 * 0.001 - 0.5, 0.5 - r as f32 * 0.001, 1.0); crate::Ray::new(glam::Vec3::ZERO, d.normalize()) }).collect::<Vec<_>>()));
-            eprintln!("threads {}", rayon::current_num_threads());
-        }
-        eprintln!("bunny {:?}", best(bunny));
-        eprintln!("terrain {:?}", best(|| terrain(BUILTIN_TERRAIN_CELLS)));
-        eprintln!("terrain verts {:?}", best(|| terrain::tmp_vertices(708, 1)));
-        eprintln!("city {:?}", best(|| city(BUILTIN_CITY_BLOCKS)));
-        for s in builtin() {
-            for set in RaySet::ALL {
-                eprintln!("{} {set}: gen 1M {:?}", s.name, best(|| generate(set, &s.mesh, s.kind, 1_000_000, 1)));
-            }
-        }
-    }
-}

@@ -81,8 +81,9 @@ const SAME_STREET: f32 = 0.3;
 /// the [`super::rng`] docs on reproducibility).
 const TAN_HALF_FOV: f32 = 0.414_213_57;
 
-/// `count` rays of `set` for `mesh` (a scene of `kind`), reproducible from `seed`. Every ray
-/// passes [`Ray::validate`].
+/// `count` rays of `set` for `mesh` (a scene of `kind`), reproducible from `seed` (the camera
+/// needs no randomness and ignores it). Every ray passes [`Ray::validate`]; the result does not
+/// depend on the number of threads.
 ///
 /// The set only reads `mesh`'s bounds, except `LineOfSight` on a terrain built by
 /// [`super::terrain`], whose endpoints follow the triangulated surface. A mesh of another shape
@@ -204,16 +205,18 @@ impl Camera {
         let w = ceil_sqrt(count);
         let h = count.div_ceil(w);
         let aspect = w as f32 / h as f32;
-        (0..count)
-            .into_par_iter()
-            .map(|p| {
-                let (row, col) = (p / w, p % w);
-                let sx = ((col as f32 + 0.5) / w as f32 * 2.0 - 1.0) * TAN_HALF_FOV * aspect;
+        let mut rays = vec![Ray::new(self.eye, self.forward); count];
+        // One task per image row (the last may be partial): no per-pixel division.
+        rays.par_chunks_mut(w)
+            .enumerate()
+            .for_each(|(row, pixels)| {
                 let sy = (1.0 - (row as f32 + 0.5) / h as f32 * 2.0) * TAN_HALF_FOV;
-                let dir = self.forward + self.right * sx + self.up * sy;
-                Ray::new(self.eye, dir.normalize())
-            })
-            .collect()
+                for (col, ray) in pixels.iter_mut().enumerate() {
+                    let sx = ((col as f32 + 0.5) / w as f32 * 2.0 - 1.0) * TAN_HALF_FOV * aspect;
+                    ray.dir = (self.forward + self.right * sx + self.up * sy).normalize();
+                }
+            });
+        rays
     }
 }
 

@@ -71,7 +71,8 @@ pub(crate) fn height(seed: u64, x: f32, z: f32) -> f32 {
     let (mut sum, mut norm) = (0.0, 0.0);
     let (mut freq, mut amp) = (1.0 / BASE_WAVELENGTH, 1.0);
     for octave in 0..OCTAVES {
-        sum += amp * value_noise(seed.wrapping_add(u64::from(octave)), x * freq, z * freq);
+        let octave_key = mix64(seed.wrapping_add(u64::from(octave)));
+        sum += amp * value_noise(octave_key, x * freq, z * freq);
         norm += amp;
         freq *= 2.0;
         amp *= 0.5;
@@ -80,20 +81,27 @@ pub(crate) fn height(seed: u64, x: f32, z: f32) -> f32 {
 }
 
 /// Value noise: pseudo-random values on the integer lattice, smoothly interpolated; in `[0, 1)`.
-fn value_noise(seed: u64, x: f32, z: f32) -> f32 {
-    let (x0, z0) = (x.floor(), z.floor());
-    let (u, w) = (fade(x - x0), fade(z - z0));
-    let (ix, iz) = (x0 as i32, z0 as i32);
-    let at = |dx: i32, dz: i32| lattice(seed, ix + dx, iz + dz);
+/// `key` is the hashed seed of the octave.
+fn value_noise(key: u64, x: f32, z: f32) -> f32 {
+    let (ix, iz) = (floor_i32(x), floor_i32(z));
+    let (u, w) = (fade(x - ix as f32), fade(z - iz as f32));
+    let at = |dx: i32, dz: i32| lattice(key, ix + dx, iz + dz);
     let near = lerp(at(0, 0), at(1, 0), u);
     let far = lerp(at(0, 1), at(1, 1), u);
     lerp(near, far, w)
 }
 
+/// `floor(x)` as an integer without the `floorf` library call (not inlined on baseline x86-64).
+/// Exact for the small coordinates the noise sees.
+fn floor_i32(x: f32) -> i32 {
+    let i = x as i32;
+    if i as f32 > x { i - 1 } else { i }
+}
+
 /// The hashed value at lattice point `(ix, iz)`, in `[0, 1)`.
-fn lattice(seed: u64, ix: i32, iz: i32) -> f32 {
-    let key = (u64::from(ix as u32) << 32) | u64::from(iz as u32);
-    bits_to_unit_f32(mix64(mix64(seed) ^ key))
+fn lattice(key: u64, ix: i32, iz: i32) -> f32 {
+    let point = (u64::from(ix as u32) << 32) | u64::from(iz as u32);
+    bits_to_unit_f32(mix64(key ^ point))
 }
 
 /// Quintic smoothstep (Perlin 2002): zero first and second derivatives at the lattice, so the
@@ -189,6 +197,13 @@ mod tests {
     }
 
     #[test]
+    fn floor_matches_the_float_floor() {
+        for x in [-2.5f32, -2.0, -0.25, -0.0, 0.0, 0.75, 1.0, 3.999, 63.5] {
+            assert_eq!(floor_i32(x) as f32, x.floor(), "{x}");
+        }
+    }
+
+    #[test]
     fn every_triangle_faces_up() {
         let m = mesh(16, 2);
         for id in 0..m.triangle_count() as u32 {
@@ -217,6 +232,3 @@ mod tests {
         assert!(TerrainGrid::from_mesh(&other).is_none());
     }
 }
-
-#[cfg(test)]
-pub(crate) fn tmp_vertices(n: u32, seed: u64) -> Vec<Vec3> { vertices(n, seed) }

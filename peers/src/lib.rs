@@ -1,0 +1,7 @@
+//! The peer-comparison harness behind the `peers` binary: raybatch next to Embree 3, obvhs and
+//! parry3d on the same mesh and rays (see the README).
+
+pub mod compare;
+pub mod embree_ffi;
+pub mod engines;
+pub mod rays;

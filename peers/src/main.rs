@@ -1,0 +1,304 @@
+//! `peers`: the same mesh and rays through raybatch, Embree 3, obvhs and parry3d, in one run.
+//!
+//! Every library builds its structure single-threaded and casts every ray single-threaded
+//! (closest hit), best of `--runs` passes each. The hits are checked against raybatch's
+//! `AabbTree::cast_ray` and a Markdown table of build time, query time, Mrays/s and the speed
+//! relative to Embree's `rtcIntersect1` goes to stdout; progress goes to stderr.
+//!
+//! ```text
+//! bash peers/setup.sh && cargo run --release -p raybatch-peers -- --rays 1000000
+//! ```
+
+use std::path::PathBuf;
+use std::process::ExitCode;
+use std::sync::Arc;
+
+use raybatch::tree::full_nodes::FullNodes;
+use raybatch::tree::quantized_nodes::QuantizedNodes;
+use raybatch::{Mesh, Ray};
+
+use raybatch_peers::compare::{T_TOLERANCE, compare};
+use raybatch_peers::engines::{self, Run};
+use raybatch_peers::{embree_ffi, rays};
+
+const USAGE: &str = "\
+usage: peers [--mesh FILE.obj] [--rays N] [--sets A,B,..] [--seed S] [--runs R]
+
+  --mesh FILE.obj  triangle mesh, treated as one object (default: data/stanford-bunny.obj of
+                   the raybatch crate)
+  --rays N         rays per set (default 1000000; underscores allowed)
+  --sets A,B,..    ray sets of raybatch::scenes (default incoherent,outside-in,line-of-sight;
+                   also camera, short); line-of-sight also times any-hit queries
+  --seed S         ray seed (default 1)
+  --runs R         timed passes per build and per query, best kept (default 3)";
+
+struct Args {
+    mesh: PathBuf,
+    rays: usize,
+    sets: Vec<rays::SetKind>,
+    seed: u64,
+    runs: usize,
+}
+
+fn parse_args() -> Result<Args, String> {
+    let mut args = Args {
+        mesh: PathBuf::from(concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/../data/stanford-bunny.obj"
+        )),
+        rays: 1_000_000,
+        sets: rays::DEFAULT_SETS.to_vec(),
+        seed: 1,
+        runs: 3,
+    };
+    let mut it = std::env::args().skip(1);
+    while let Some(flag) = it.next() {
+        if flag == "-h" || flag == "--help" {
+            return Err(String::new());
+        }
+        let value = it.next().ok_or_else(|| format!("{flag} needs a value"))?;
+        let number = |v: &str| -> Result<u64, String> {
+            v.replace('_', "")
+                .parse()
+                .map_err(|e| format!("{flag} {v}: {e}"))
+        };
+        match flag.as_str() {
+            "--mesh" => args.mesh = PathBuf::from(value),
+            "--rays" => args.rays = number(&value)? as usize,
+            "--sets" => {
+                args.sets = value
+                    .split(',')
+                    .map(|name| {
+                        rays::SetKind::from_name(name.trim())
+                            .ok_or_else(|| format!("unknown ray set {name:?}"))
+                    })
+                    .collect::<Result<_, _>>()?
+            }
+            "--seed" => args.seed = number(&value)?,
+            "--runs" => args.runs = (number(&value)? as usize).max(1),
+            _ => return Err(format!("unknown argument {flag}")),
+        }
+    }
+    Ok(args)
+}
+
+fn main() -> ExitCode {
+    let args = match parse_args() {
+        Ok(a) => a,
+        Err(e) => {
+            if !e.is_empty() {
+                eprintln!("error: {e}");
+            }
+            eprintln!("{USAGE}");
+            return if e.is_empty() {
+                ExitCode::SUCCESS
+            } else {
+                ExitCode::from(2)
+            };
+        }
+    };
+    match run(&args) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
+fn run(args: &Args) -> Result<(), String> {
+    eprintln!("loading {}", args.mesh.display());
+    let mesh = Arc::new(Mesh::load_obj(&args.mesh).map_err(|e| e.to_string())?);
+    let device = embree_ffi::Device::new("threads=1")?;
+    eprintln!(
+        "Embree {} ({} tasking), {} triangles",
+        device.version_string(),
+        device.tasking_system(),
+        mesh.triangle_count()
+    );
+
+    println!("# raybatch vs peers\n");
+    println!(
+        "Mesh `{}` ({} triangles, {} vertices); {} rays per set, seed {}; best of {} runs; \
+         build and query single-threaded; Embree {} ({} tasking).\n",
+        args.mesh.display(),
+        mesh.triangle_count(),
+        mesh.vertices().len(),
+        args.rays,
+        args.seed,
+        args.runs,
+        device.version_string(),
+        device.tasking_system(),
+    );
+
+    for set in rays::ray_sets(&mesh, &args.sets, args.rays, args.seed) {
+        eprintln!("ray set {}: {} rays", set.name(), set.rays.len());
+        let runs = run_all(&device, &mesh, &set.rays, args.runs, set.any_hit)?;
+        print_table(&set, &runs);
+        if set.any_hit {
+            print_any_hit_table(&runs);
+        }
+    }
+    println!(
+        "Disagreements are against `raybatch AabbTree` (`cast_ray`, watertight kernel): \
+         hit/miss = one hits and the other misses (peer misses / peer extra hits); \
+         t = both hit but |dt| > {T_TOLERANCE:e} * max(1, t); triangle = same t but another \
+         triangle (a tie on a shared edge or vertex; each library breaks ties its own way). \
+         Speed vs Embree = Mrays/s over Embree rtcIntersect1's (> 1 is faster)."
+    );
+    Ok(())
+}
+
+/// Every library on one ray set; the reference (raybatch full nodes) first.
+fn run_all(
+    device: &embree_ffi::Device,
+    mesh: &Arc<Mesh>,
+    rays: &[Ray],
+    runs: usize,
+    any_hit: bool,
+) -> Result<Vec<Run>, String> {
+    let mut out = vec![engines::raybatch::<FullNodes>(mesh, rays, runs, any_hit)?];
+    out.push(engines::raybatch::<QuantizedNodes>(
+        mesh, rays, runs, any_hit,
+    )?);
+    out.extend(engines::embree(device, mesh, rays, runs, any_hit)?);
+    out.push(engines::obvhs_cwbvh(mesh, rays, runs, any_hit));
+    out.push(engines::obvhs_bvh2(mesh, rays, runs, any_hit));
+    out.push(engines::parry(mesh, rays, runs, any_hit)?);
+    Ok(out)
+}
+
+/// Table rows in print order: Embree first, then raybatch, then the other peers.
+fn print_order(runs: &[Run]) -> Vec<&Run> {
+    let rank = |r: &Run| match r.engine {
+        e if e.starts_with("Embree") => 0,
+        e if e.starts_with("raybatch") => 1,
+        _ => 2,
+    };
+    let mut rows: Vec<&Run> = runs.iter().collect();
+    rows.sort_by_key(|r| rank(r));
+    rows
+}
+
+fn print_table(set: &rays::RaySet, runs: &[Run]) {
+    let reference = &runs[0];
+    let embree = runs
+        .iter()
+        .find(|r| r.engine == "Embree rtcIntersect1")
+        .map(Run::mrays_per_s);
+    println!("## Ray set `{}`: {}\n", set.name(), set.description);
+    println!("Closest hit:\n");
+    println!(
+        "| engine | build (ms) | query (ms) | Mrays/s | speed vs Embree | hits | \
+         hit/miss (peer misses / extra) | t | triangle (same t) |"
+    );
+    println!("|---|---:|---:|---:|---:|---:|---:|---:|---:|");
+    for run in print_order(runs) {
+        let agreement = if std::ptr::eq(run, reference) {
+            None
+        } else {
+            let mut examples = Vec::new();
+            let a = compare(&reference.hits, &run.hits, &mut examples, 3);
+            report_examples(run, reference, &set.rays, &examples);
+            Some(a)
+        };
+        let ratio = embree.map_or("-".into(), |e| format!("{:.2}", run.mrays_per_s() / e));
+        let hits = run.hits.iter().filter(|h| h.is_some()).count();
+        let (hit_miss, t, tri) = match agreement {
+            None => ("reference".to_string(), "-".to_string(), "-".to_string()),
+            Some(a) => (
+                format!(
+                    "{} ({} / {})",
+                    a.hit_miss(),
+                    a.peer_misses,
+                    a.peer_extra_hits
+                ),
+                a.t_differs.to_string(),
+                a.triangle_differs.to_string(),
+            ),
+        };
+        println!(
+            "| {} | {:.1} | {:.1} | {:.2} | {} | {} | {} | {} | {} |",
+            run.engine,
+            run.build.as_secs_f64() * 1e3,
+            run.query.as_secs_f64() * 1e3,
+            run.mrays_per_s(),
+            ratio,
+            hits,
+            hit_miss,
+            t,
+            tri
+        );
+    }
+    println!("\nStructures and settings:\n");
+    for run in print_order(runs) {
+        println!("- {}: {}", run.engine, run.structure);
+    }
+    println!();
+}
+
+/// Occlusion queries on the same structures, checked against raybatch's `occluded` and against
+/// each library's own closest hit (occluded must equal "the closest hit exists").
+fn print_any_hit_table(runs: &[Run]) {
+    let Some(reference) = runs[0].any_hit.as_ref() else {
+        return;
+    };
+    let embree = runs
+        .iter()
+        .find(|r| r.engine == "Embree rtcIntersect1")
+        .and_then(|r| r.any_hit.as_ref())
+        .map(engines::AnyHit::mrays_per_s);
+    println!("Any hit (occlusion) on the same structures and rays:\n");
+    println!(
+        "| engine | call | query (ms) | Mrays/s | speed vs Embree | occluded | \
+         differs from raybatch occluded | differs from own closest hit |"
+    );
+    println!("|---|---|---:|---:|---:|---:|---:|---:|");
+    for run in print_order(runs) {
+        let Some(a) = run.any_hit.as_ref() else {
+            continue;
+        };
+        let vs_reference = if std::ptr::eq(a, reference) {
+            "reference".to_string()
+        } else {
+            let n = a
+                .occluded
+                .iter()
+                .zip(&reference.occluded)
+                .filter(|(x, y)| x != y)
+                .count();
+            n.to_string()
+        };
+        let vs_own = a
+            .occluded
+            .iter()
+            .zip(&run.hits)
+            .filter(|(o, h)| **o != h.is_some())
+            .count();
+        let ratio = embree.map_or("-".into(), |e| format!("{:.2}", a.mrays_per_s() / e));
+        let engine = run.engine.replace(" rtcIntersect1", "");
+        println!(
+            "| {} | {} | {:.1} | {:.2} | {} | {} | {} | {} |",
+            engine,
+            a.call,
+            a.query.as_secs_f64() * 1e3,
+            a.mrays_per_s(),
+            ratio,
+            a.occluded.iter().filter(|&&o| o).count(),
+            vs_reference,
+            vs_own
+        );
+    }
+    println!();
+}
+
+/// The first few disagreements, on stderr, to see what kind they are.
+fn report_examples(run: &Run, reference: &Run, rays: &[Ray], examples: &[usize]) {
+    for &i in examples {
+        let r = &rays[i];
+        eprintln!(
+            "  {} vs {}: ray {i} (origin {:?}, dir {:?}): {:?} vs {:?}",
+            run.engine, reference.engine, r.origin, r.dir, run.hits[i], reference.hits[i]
+        );
+    }
+}

@@ -1,0 +1,327 @@
+//! Command-line parsing by hand: the subcommands, their flags, and the help text.
+//!
+//! Flags are `--name value` or bare switches; every flag may be given once. Anything unknown is
+//! a usage error. Paths stay `OsString`s so that non-UTF-8 file names work.
+
+use std::ffi::OsString;
+use std::path::PathBuf;
+use std::str::FromStr;
+
+use raybatch::Kernel;
+use raybatch::tree::build::MAX_LEAF_SIZE;
+
+use crate::bench::SCENE_NAMES;
+use crate::error::CliError;
+use crate::runner::QueryKind;
+
+/// The full `--help` text.
+pub const HELP: &str = "\
+raybatch - batches of ray queries against triangle meshes
+
+Usage:
+  raybatch bench [--mesh FILE.obj | --scenes LIST] [--rays N] [--leaf N] [--quick]
+  raybatch query --mesh MESH.obj --rays RAYS.bin --kind closest|any --out HITS.bin
+                 [--tree aabb|quantized] [--kernel watertight|moller-trumbore]
+                 [--leaf N] [--batched] [--threads N]
+  raybatch --help
+
+bench: times tree builds and single-threaded queries, and prints one Markdown table per
+scene on stdout (progress goes to stderr).
+  --mesh FILE.obj   benchmark this OBJ file (an object seen from around) instead of the
+                    built-in scenes
+  --scenes LIST     comma-separated built-in scenes: bunny,terrain,city (default: all)
+  --rays N          rays per ray set (default 1000000, or 100000 with --quick)
+  --leaf N          largest leaf size, 1 to 16 (default 4)
+  --quick           100000 rays (unless --rays) and the pns ordering only, a smoke test
+
+query: answers the rays of RAYS.bin against MESH.obj, writes the answers to HITS.bin and
+prints one JSON line of statistics on stderr.
+  --mesh MESH.obj   the mesh; triangle ids are its triangles in file order (polygons are
+                    fan-triangulated)
+  --rays RAYS.bin   rays as records of 8 little-endian f32: ox oy oz dx dy dz tmin tmax
+                    (invalid rays, e.g. with NaN, are not an error: they miss)
+  --kind KIND       closest: 16 bytes per ray: f32 t, u32 triangle, f32 u, f32 v
+                      (a miss is t = +inf, triangle = 4294967295, u = v = 0)
+                    any: 1 byte per ray: 1 if anything is hit in [tmin, tmax], else 0
+  --out HITS.bin    the output, written only if everything succeeded
+  --tree TREE       aabb (32-byte nodes, the default) or quantized (16-byte nodes)
+  --kernel KERNEL   watertight (the default, exact on shared edges) or moller-trumbore
+  --leaf N          largest leaf size, 1 to 16 (default 4)
+  --batched         reserved for the batched engine (rays are still answered one by one)
+  --threads N       reserved for the batched engine (queries are still single-threaded)
+
+Exit codes: 0 success, 1 bad input or output file, 2 bad command line.
+";
+
+/// Usage lines of `bench`, shown with usage errors.
+pub const BENCH_USAGE: &str =
+    "usage: raybatch bench [--mesh FILE.obj | --scenes LIST] [--rays N] [--leaf N] [--quick]";
+
+/// Usage lines of `query`, shown with usage errors.
+pub const QUERY_USAGE: &str = "usage: raybatch query --mesh MESH.obj --rays RAYS.bin \
+--kind closest|any --out HITS.bin [--tree aabb|quantized] \
+[--kernel watertight|moller-trumbore] [--leaf N] [--batched] [--threads N]";
+
+/// Usage line of the tool as a whole.
+pub const TOP_USAGE: &str = "usage: raybatch bench|query [FLAGS] (see raybatch --help)";
+
+/// Default largest leaf size.
+const DEFAULT_LEAF: u32 = 4;
+
+/// What to do.
+#[derive(Debug)]
+pub enum Command {
+    Help,
+    Bench(BenchArgs),
+    Query(QueryArgs),
+}
+
+/// Flags of `raybatch bench`.
+#[derive(Debug)]
+pub struct BenchArgs {
+    /// A user mesh instead of the built-in scenes.
+    pub mesh: Option<PathBuf>,
+    /// Built-in scenes to run, in the given order (`None`: all of them).
+    pub scenes: Option<Vec<String>>,
+    /// Rays per ray set, overriding the default.
+    pub rays: Option<usize>,
+    pub leaf: u32,
+    pub quick: bool,
+}
+
+/// Which node format to build.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum TreeKind {
+    /// `AabbTree`, full 32-byte nodes.
+    Full,
+    /// `QuantizedAabbTree`, 16-byte nodes.
+    Quantized,
+}
+
+impl TreeKind {
+    pub fn name(self) -> &'static str {
+        match self {
+            TreeKind::Full => "aabb",
+            TreeKind::Quantized => "quantized",
+        }
+    }
+}
+
+/// Flags of `raybatch query`.
+#[derive(Debug)]
+pub struct QueryArgs {
+    pub mesh: PathBuf,
+    pub rays: PathBuf,
+    pub kind: QueryKind,
+    pub out: PathBuf,
+    pub tree: TreeKind,
+    pub kernel: Kernel,
+    pub leaf: u32,
+    /// Reserved: asks for the batched engine.
+    pub batched: bool,
+    /// Reserved: threads for the batched engine.
+    pub threads: Option<usize>,
+}
+
+/// Parses the arguments after the program name.
+pub fn parse(args: Vec<OsString>) -> Result<Command, CliError> {
+    if args.iter().any(|a| a == "--help" || a == "-h") {
+        return Ok(Command::Help);
+    }
+    let mut cursor = Cursor::new(args);
+    match cursor.next_word()?.as_deref() {
+        None => Err(CliError::usage("missing command (bench or query)")),
+        Some("help") => Ok(Command::Help),
+        Some("bench") => parse_bench(&mut cursor).map(Command::Bench),
+        Some("query") => parse_query(&mut cursor).map(Command::Query),
+        Some(other) => Err(CliError::usage(format!("unknown command '{other}'"))),
+    }
+}
+
+fn parse_bench(cursor: &mut Cursor) -> Result<BenchArgs, CliError> {
+    let (mut mesh, mut scenes, mut rays, mut leaf, mut quick) = (None, None, None, None, None);
+    while let Some(flag) = cursor.next_flag()? {
+        match flag.as_str() {
+            "--mesh" => set_once(&mut mesh, &flag, cursor.path(&flag)?)?,
+            "--scenes" => set_once(&mut scenes, &flag, scene_list(&cursor.text(&flag)?)?)?,
+            "--rays" => set_once(&mut rays, &flag, cursor.positive(&flag)?)?,
+            "--leaf" => set_once(&mut leaf, &flag, cursor.leaf_size(&flag)?)?,
+            "--quick" => set_once(&mut quick, &flag, true)?,
+            _ => return Err(unknown_flag(&flag)),
+        }
+    }
+    if mesh.is_some() && scenes.is_some() {
+        return Err(CliError::usage("--mesh and --scenes cannot be combined"));
+    }
+    Ok(BenchArgs {
+        mesh,
+        scenes,
+        rays,
+        leaf: leaf.unwrap_or(DEFAULT_LEAF),
+        quick: quick.unwrap_or(false),
+    })
+}
+
+fn parse_query(cursor: &mut Cursor) -> Result<QueryArgs, CliError> {
+    let (mut mesh, mut rays, mut kind, mut out) = (None, None, None, None);
+    let (mut tree, mut kernel, mut leaf, mut batched, mut threads) = (None, None, None, None, None);
+    while let Some(flag) = cursor.next_flag()? {
+        match flag.as_str() {
+            "--mesh" => set_once(&mut mesh, &flag, cursor.path(&flag)?)?,
+            "--rays" => set_once(&mut rays, &flag, cursor.path(&flag)?)?,
+            "--kind" => set_once(&mut kind, &flag, query_kind(&cursor.text(&flag)?)?)?,
+            "--out" => set_once(&mut out, &flag, cursor.path(&flag)?)?,
+            "--tree" => set_once(&mut tree, &flag, tree_kind(&cursor.text(&flag)?)?)?,
+            "--kernel" => set_once(&mut kernel, &flag, kernel_named(&cursor.text(&flag)?)?)?,
+            "--leaf" => set_once(&mut leaf, &flag, cursor.leaf_size(&flag)?)?,
+            "--batched" => set_once(&mut batched, &flag, true)?,
+            "--threads" => set_once(&mut threads, &flag, cursor.positive(&flag)?)?,
+            _ => return Err(unknown_flag(&flag)),
+        }
+    }
+    Ok(QueryArgs {
+        mesh: required(mesh, "--mesh")?,
+        rays: required(rays, "--rays")?,
+        kind: required(kind, "--kind")?,
+        out: required(out, "--out")?,
+        tree: tree.unwrap_or(TreeKind::Full),
+        kernel: kernel.unwrap_or_default(),
+        leaf: leaf.unwrap_or(DEFAULT_LEAF),
+        batched: batched.unwrap_or(false),
+        threads,
+    })
+}
+
+/// Walks the arguments, handing out flags and their values.
+struct Cursor {
+    args: std::vec::IntoIter<OsString>,
+}
+
+impl Cursor {
+    fn new(args: Vec<OsString>) -> Self {
+        Self {
+            args: args.into_iter(),
+        }
+    }
+
+    /// The next argument as text, if any.
+    fn next_word(&mut self) -> Result<Option<String>, CliError> {
+        self.args.next().map(utf8).transpose()
+    }
+
+    /// The next flag; a bare word where a flag is expected is an error.
+    fn next_flag(&mut self) -> Result<Option<String>, CliError> {
+        match self.next_word()? {
+            Some(w) if !w.starts_with("--") => {
+                Err(CliError::usage(format!("unexpected argument '{w}'")))
+            }
+            other => Ok(other),
+        }
+    }
+
+    /// The value after `flag` (one that looks like another flag counts as missing).
+    fn value(&mut self, flag: &str) -> Result<OsString, CliError> {
+        match self.args.next() {
+            Some(v) if !v.to_string_lossy().starts_with("--") => Ok(v),
+            _ => Err(CliError::usage(format!("{flag} needs a value"))),
+        }
+    }
+
+    fn path(&mut self, flag: &str) -> Result<PathBuf, CliError> {
+        self.value(flag).map(PathBuf::from)
+    }
+
+    fn text(&mut self, flag: &str) -> Result<String, CliError> {
+        self.value(flag).and_then(utf8)
+    }
+
+    fn number<T: FromStr>(&mut self, flag: &str) -> Result<T, CliError> {
+        let text = self.text(flag)?;
+        text.parse()
+            .map_err(|_| CliError::usage(format!("{flag} needs a whole number, not '{text}'")))
+    }
+
+    /// A number of at least 1.
+    fn positive(&mut self, flag: &str) -> Result<usize, CliError> {
+        match self.number(flag)? {
+            0 => Err(CliError::usage(format!("{flag} must be at least 1"))),
+            n => Ok(n),
+        }
+    }
+
+    fn leaf_size(&mut self, flag: &str) -> Result<u32, CliError> {
+        let n = self.number(flag)?;
+        if (1..=MAX_LEAF_SIZE).contains(&n) {
+            Ok(n)
+        } else {
+            Err(CliError::usage(format!(
+                "{flag} must be between 1 and {MAX_LEAF_SIZE}, not {n}"
+            )))
+        }
+    }
+}
+
+fn utf8(arg: OsString) -> Result<String, CliError> {
+    arg.into_string()
+        .map_err(|a| CliError::usage(format!("argument {a:?} is not valid UTF-8")))
+}
+
+fn set_once<T>(slot: &mut Option<T>, flag: &str, value: T) -> Result<(), CliError> {
+    if slot.replace(value).is_some() {
+        return Err(CliError::usage(format!("{flag} given more than once")));
+    }
+    Ok(())
+}
+
+fn required<T>(slot: Option<T>, flag: &str) -> Result<T, CliError> {
+    slot.ok_or_else(|| CliError::usage(format!("missing {flag}")))
+}
+
+fn unknown_flag(flag: &str) -> CliError {
+    CliError::usage(format!("unknown flag '{flag}'"))
+}
+
+/// Comma-separated names, each a built-in scene.
+fn scene_list(text: &str) -> Result<Vec<String>, CliError> {
+    text.split(',')
+        .map(str::trim)
+        .map(|name| {
+            if SCENE_NAMES.contains(&name) {
+                Ok(name.to_string())
+            } else {
+                Err(CliError::usage(format!(
+                    "unknown scene '{name}' (expected one of {})",
+                    SCENE_NAMES.join(", ")
+                )))
+            }
+        })
+        .collect()
+}
+
+fn query_kind(text: &str) -> Result<QueryKind, CliError> {
+    QueryKind::from_name(text).ok_or_else(|| {
+        CliError::usage(format!("unknown --kind '{text}' (expected closest or any)"))
+    })
+}
+
+fn tree_kind(text: &str) -> Result<TreeKind, CliError> {
+    [TreeKind::Full, TreeKind::Quantized]
+        .into_iter()
+        .find(|t| t.name() == text)
+        .ok_or_else(|| {
+            CliError::usage(format!(
+                "unknown --tree '{text}' (expected aabb or quantized)"
+            ))
+        })
+}
+
+fn kernel_named(text: &str) -> Result<Kernel, CliError> {
+    Kernel::ALL
+        .into_iter()
+        .find(|k| k.name() == text)
+        .ok_or_else(|| {
+            CliError::usage(format!(
+                "unknown --kernel '{text}' (expected watertight or moller-trumbore)"
+            ))
+        })
+}
