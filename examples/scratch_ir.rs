@@ -29,8 +29,13 @@ fn main() {
             Ray::new(o, d)
         })
         .collect();
-    let tree: AabbTree =
-        AabbTree::build(mesh, &BuildOptions::default().with_leaf_size(leaf)).unwrap();
+    let tree: AabbTree = AabbTree::build(
+        mesh,
+        &BuildOptions::default()
+            .with_leaf_size(leaf)
+            .with_leaf_corners(std::env::var("COPIES").is_ok()),
+    )
+    .unwrap();
     let mut hits = vec![None; n];
     let o = BatchOptions::default().with_parallel(false);
     match mode.as_str() {

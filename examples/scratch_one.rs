@@ -30,15 +30,23 @@ fn main() {
             Ray::new(o, d)
         })
         .collect();
-    let opts = BuildOptions::default().with_leaf_size(4);
+    let leaf: u32 = std::env::var("LEAF")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(4);
+    let copies = std::env::var("COPIES").is_ok();
+    let opts = BuildOptions::default()
+        .with_leaf_size(leaf)
+        .with_leaf_corners(copies);
     let tree: AabbTree = AabbTree::build(mesh.clone(), &opts).unwrap();
     let single: Vec<Option<Hit>> = rays.iter().map(|r| tree.cast_ray(r)).collect();
     let mut hits = vec![None; n];
     for ord in BatchOrdering::ALL {
-        for par in [false, true] {
+        for par in [0usize, 4, 8, 16, 32] {
             let o = BatchOptions::default()
                 .with_ordering(ord)
-                .with_parallel(par);
+                .with_parallel(false)
+                .with_single_ray_below(par);
             for _ in 0..2 {
                 let t0 = Instant::now();
                 tree.cast_rays_with(&rays, &mut hits, &o).unwrap();

@@ -9,8 +9,8 @@
 //! Empty meshes are valid (every query misses). Degenerate triangles (repeated indices or zero
 //! area) are valid too: they keep their id but are never hit.
 
-use std::path::Path;
 use glam::Vec3;
+use std::path::Path;
 
 use crate::geom::{Aabb, is_degenerate};
 use crate::obj::{ObjError, parse_obj};

@@ -42,7 +42,9 @@ impl std::fmt::Display for RayError {
             RayError::NonFiniteOrigin => "ray origin is NaN or infinite",
             RayError::NonFiniteDirection => "ray direction is NaN or infinite",
             RayError::ZeroDirection => "ray direction is zero",
-            RayError::InvalidRange => "ray range is empty, negative or NaN (need 0 <= tmin <= tmax)",
+            RayError::InvalidRange => {
+                "ray range is empty, negative or NaN (need 0 <= tmin <= tmax)"
+            }
         })
     }
 }
@@ -107,7 +109,13 @@ impl Ray {
 
 /// Replaces subnormal components (and -0) by +0 or -0 of the same sign: `1 / x` must not overflow.
 pub(crate) fn flush_subnormals(v: Vec3) -> Vec3 {
-    let flush = |x: f32| if x.abs() < f32::MIN_POSITIVE { 0.0f32.copysign(x) } else { x };
+    let flush = |x: f32| {
+        if x.abs() < f32::MIN_POSITIVE {
+            0.0f32.copysign(x)
+        } else {
+            x
+        }
+    };
     Vec3::new(flush(v.x), flush(v.y), flush(v.z))
 }
 
@@ -180,17 +188,38 @@ mod tests {
     fn validation_names_the_problem() {
         let o = Vec3::ZERO;
         let d = Vec3::X;
-        assert_eq!(Ray::new(Vec3::NAN, d).validate(), Err(RayError::NonFiniteOrigin));
+        assert_eq!(
+            Ray::new(Vec3::NAN, d).validate(),
+            Err(RayError::NonFiniteOrigin)
+        );
         assert_eq!(
             Ray::new(o, Vec3::new(f32::INFINITY, 0.0, 0.0)).validate(),
             Err(RayError::NonFiniteDirection)
         );
-        assert_eq!(Ray::new(o, Vec3::ZERO).validate(), Err(RayError::ZeroDirection));
-        assert_eq!(Ray::new(o, Vec3::splat(1e-40)).validate(), Err(RayError::ZeroDirection));
-        assert_eq!(Ray::with_range(o, d, 2.0, 1.0).validate(), Err(RayError::InvalidRange));
-        assert_eq!(Ray::with_range(o, d, -1.0, 1.0).validate(), Err(RayError::InvalidRange));
-        assert_eq!(Ray::with_range(o, d, f32::NAN, 1.0).validate(), Err(RayError::InvalidRange));
-        assert_eq!(Ray::with_range(o, d, 0.0, f32::NAN).validate(), Err(RayError::InvalidRange));
+        assert_eq!(
+            Ray::new(o, Vec3::ZERO).validate(),
+            Err(RayError::ZeroDirection)
+        );
+        assert_eq!(
+            Ray::new(o, Vec3::splat(1e-40)).validate(),
+            Err(RayError::ZeroDirection)
+        );
+        assert_eq!(
+            Ray::with_range(o, d, 2.0, 1.0).validate(),
+            Err(RayError::InvalidRange)
+        );
+        assert_eq!(
+            Ray::with_range(o, d, -1.0, 1.0).validate(),
+            Err(RayError::InvalidRange)
+        );
+        assert_eq!(
+            Ray::with_range(o, d, f32::NAN, 1.0).validate(),
+            Err(RayError::InvalidRange)
+        );
+        assert_eq!(
+            Ray::with_range(o, d, 0.0, f32::NAN).validate(),
+            Err(RayError::InvalidRange)
+        );
         assert!(Ray::new(o, d).is_valid());
         assert!(Ray::segment(o, Vec3::ONE).is_valid());
         assert!(Ray::segment(o, o).validate() == Err(RayError::ZeroDirection));

@@ -260,7 +260,10 @@ mod tests {
         for hit in both(Vec3::new(0.25, 0.5, 0.0), Vec3::Z, &TRI) {
             let h = hit.unwrap();
             assert_eq!(h.t, 1.0);
-            assert!((h.u - 0.25).abs() < 1e-6 && (h.v - 0.5).abs() < 1e-6, "{h:?}");
+            assert!(
+                (h.u - 0.25).abs() < 1e-6 && (h.v - 0.5).abs() < 1e-6,
+                "{h:?}"
+            );
         }
     }
 
@@ -280,7 +283,10 @@ mod tests {
         let r = |o: Vec3| PreparedRay::new(&Ray::new(o, Vec3::Z)).unwrap();
         for p in [Vec3::ZERO, Vec3::X, Vec3::Y, Vec3::new(0.5, 0.5, 0.0)] {
             let ray = r(p);
-            assert!(Watertight::intersect(&ray, &TRI, f32::INFINITY).is_some(), "{p}");
+            assert!(
+                Watertight::intersect(&ray, &TRI, f32::INFINITY).is_some(),
+                "{p}"
+            );
         }
     }
 

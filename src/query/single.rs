@@ -61,10 +61,23 @@ where
     if tree.node_count() == 0 {
         return;
     }
-    let mut node = tree.node(0);
-    if node.bounds.entry(ray, visitor.tmax()) == f32::INFINITY {
+    let root = tree.node(0);
+    if root.bounds.entry(ray, visitor.tmax()) == f32::INFINITY {
         return;
     }
+    traverse_below::<B, K, V>(tree, ray, root, visitor)
+}
+
+/// The traversal loop, starting at `node`, whose box the ray is known to touch. The batched
+/// engine calls it to finish a subtree for the few rays that reach it.
+#[inline(always)]
+pub(crate) fn traverse_below<B, K, V>(tree: &B, ray: &PreparedRay, start: NodeView, visitor: &mut V)
+where
+    B: Bvh + ?Sized,
+    K: TriangleTest,
+    V: Visitor,
+{
+    let mut node = start;
     let mut stack = [(0u32, 0.0f32); STACK_SIZE];
     let mut len = 0;
     loop {
@@ -131,7 +144,44 @@ impl<B: Bvh + ?Sized, V: Visitor> KernelTask for Traversal<'_, B, V> {
 }
 
 /// Runs `visitor` with `kernel`, monomorphized for the ray's dominant axis.
+///
+/// On x86-64 CPUs with AVX2 the whole loop is compiled a second time with AVX2 enabled (wider
+/// blends and three-operand instructions make the box test shorter) and picked at run time.
+/// Both versions perform the same IEEE operations in the same order (Rust never fuses a
+/// multiply and an add on its own), so they return identical bits.
+#[inline]
 pub(crate) fn run<B: Bvh + ?Sized, V: Visitor>(
+    tree: &B,
+    ray: &PreparedRay,
+    kernel: Kernel,
+    visitor: &mut V,
+) {
+    #[cfg(target_arch = "x86_64")]
+    if std::arch::is_x86_feature_detected!("avx2") {
+        // SAFETY: the CPU supports AVX2, the only requirement of `run_avx2`.
+        unsafe { run_avx2(tree, ray, kernel, visitor) };
+        return;
+    }
+    run_portable(tree, ray, kernel, visitor)
+}
+
+/// [`run`] compiled for the baseline instruction set.
+pub(crate) fn run_portable<B: Bvh + ?Sized, V: Visitor>(
+    tree: &B,
+    ray: &PreparedRay,
+    kernel: Kernel,
+    visitor: &mut V,
+) {
+    kernel.dispatch(ray.kz as usize, Traversal { tree, ray, visitor })
+}
+
+/// [`run`] compiled with AVX2 enabled.
+///
+/// # Safety
+/// The CPU must support AVX2.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+unsafe fn run_avx2<B: Bvh + ?Sized, V: Visitor>(
     tree: &B,
     ray: &PreparedRay,
     kernel: Kernel,

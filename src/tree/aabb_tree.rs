@@ -66,6 +66,8 @@ pub struct AabbTree<N: NodeFormat = FullNodes> {
     mesh: Arc<Mesh>,
     nodes: N,
     triangle_order: Vec<u32>,
+    /// Corners of each slot's triangle, if [`BuildOptions::leaf_corners`] (else empty).
+    corners: Vec<[Vec3; 3]>,
     depth: usize,
     options: BuildOptions,
 }
@@ -80,9 +82,19 @@ impl<N: NodeFormat> AabbTree<N> {
         let mesh = mesh.into();
         let built = build(&mesh, options)?;
         let nodes = N::pack(&built)?;
+        let corners = if options.leaf_corners {
+            built
+                .triangle_order
+                .iter()
+                .map(|&id| mesh.triangle(id))
+                .collect()
+        } else {
+            Vec::new()
+        };
         Ok(Self {
             mesh,
             nodes,
+            corners,
             triangle_order: built.triangle_order,
             depth: built.depth,
             options: *options,
@@ -117,7 +129,10 @@ impl<N: NodeFormat> Bvh for AabbTree<N> {
     #[inline(always)]
     fn triangle(&self, slot: u32) -> (u32, [Vec3; 3]) {
         let id = self.triangle_order[slot as usize];
-        (id, self.mesh.triangle(id))
+        match self.corners.get(slot as usize) {
+            Some(corners) => (id, *corners),
+            None => (id, self.mesh.triangle(id)),
+        }
     }
 
     fn depth(&self) -> usize {
@@ -125,7 +140,9 @@ impl<N: NodeFormat> Bvh for AabbTree<N> {
     }
 
     fn heap_bytes(&self) -> usize {
-        self.nodes.heap_bytes() + self.triangle_order.len() * size_of::<u32>()
+        self.nodes.heap_bytes()
+            + self.triangle_order.len() * size_of::<u32>()
+            + self.corners.len() * size_of::<[Vec3; 3]>()
     }
 
     fn name(&self) -> &'static str {

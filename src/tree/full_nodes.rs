@@ -28,9 +28,11 @@ pub struct FullNode {
     order: u32,
 }
 
-/// Packs a leaf's triangle range (`count` in 1..=16, `first` < [`MAX_SLOTS`]).
+/// Packs a leaf's triangle range (`count` in 1..=16, `first` < [`MAX_SLOTS`]). The padding node
+/// (an empty leaf, see [`super::build::FIRST_PAIR`]) is stored as one triangle behind an
+/// empty box, which no ray ever enters.
 pub(crate) fn leaf_word(first: u32, count: u32) -> u32 {
-    LEAF_BIT | ((count - 1) << COUNT_SHIFT) | first
+    LEAF_BIT | ((count.max(1) - 1) << COUNT_SHIFT) | first
 }
 
 /// Unpacks a leaf word into `(first, count)`.

@@ -56,7 +56,12 @@ fn octant_diagonal(o: u32) -> Vec3 {
 }
 
 /// The ordering byte of a node whose children have boxes `first` and `second`.
-pub fn ordering_byte(ordering: ChildOrdering, first: &Aabb, second: &Aabb, split_axis: usize) -> u8 {
+pub fn ordering_byte(
+    ordering: ChildOrdering,
+    first: &Aabb,
+    second: &Aabb,
+    split_axis: usize,
+) -> u8 {
     let delta = first.center() - second.center();
     let delta = match ordering {
         ChildOrdering::Fixed => return 0,

@@ -3,7 +3,7 @@
 //! ```text
 //! qmin: [u16; 3] | qmax: [u16; 3] | word: u32
 //! word, internal: bit 31 clear | order byte in bits 23..31 | child pair index p in bits 0..23
-//!                 (children are nodes 2p + 1 and 2p + 2)
+//!                 (children are nodes 2p + 2 and 2p + 3)
 //! word, leaf:     bit 31 set | (count - 1) in bits 27..31 | first triangle slot in bits 0..27
 //! ```
 //!
@@ -20,7 +20,7 @@
 use glam::Vec3;
 
 use super::NodeView;
-use super::build::{BuildError, BuiltNode};
+use super::build::{BuildError, BuiltNode, FIRST_PAIR};
 use super::full_nodes::{MAX_SLOTS, is_leaf, leaf_word, unpack_leaf};
 use crate::geom::Aabb;
 
@@ -54,7 +54,7 @@ impl QuantizedNodes {
     pub const FORMAT: &'static str = "quantized nodes (16 B)";
 
     pub fn pack(built: &[BuiltNode], slots: usize) -> Result<Self, BuildError> {
-        let max_nodes = 2 * (PAIR_MASK as usize + 1) + 1;
+        let max_nodes = 2 * (PAIR_MASK as usize + 1) + FIRST_PAIR as usize;
         if built.len() > max_nodes || slots > MAX_SLOTS {
             return Err(BuildError::TooLarge {
                 format: Self::FORMAT,
@@ -78,7 +78,7 @@ impl QuantizedNodes {
             let word = if n.first_child == 0 {
                 leaf_word(n.first, n.count)
             } else {
-                ((n.order as u32) << PAIR_BITS) | ((n.first_child - 1) / 2)
+                ((n.order as u32) << PAIR_BITS) | ((n.first_child - FIRST_PAIR) / 2)
             };
             nodes.push(QuantizedNode {
                 qmin: [qx.0, qy.0, qz.0],
@@ -135,7 +135,7 @@ impl QuantizedNodes {
                 bounds,
                 first: 0,
                 count: 0,
-                first_child: 2 * (n.word & PAIR_MASK) + 1,
+                first_child: 2 * (n.word & PAIR_MASK) + FIRST_PAIR,
                 order: (n.word >> PAIR_BITS) as u8,
             }
         }
@@ -182,7 +182,10 @@ mod tests {
 
     #[test]
     fn quantized_boxes_contain_the_exact_ones() {
-        let root = Aabb::new(Vec3::new(1e5, -3.0, 0.1), Vec3::new(1e5 + 7.0, 11.0, 0.1000001));
+        let root = Aabb::new(
+            Vec3::new(1e5, -3.0, 0.1),
+            Vec3::new(1e5 + 7.0, 11.0, 0.1000001),
+        );
         let (o, s) = grid_over(&root);
         let mut x = 0x2545_f491u32;
         for _ in 0..10_000 {

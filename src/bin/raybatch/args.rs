@@ -25,14 +25,16 @@ Usage:
                  [--leaf N] [--batched] [--threads N]
   raybatch --help
 
-bench: times tree builds and single-threaded queries, and prints one Markdown table per
+bench: times tree builds and queries, per ray and batched, and prints Markdown tables per
 scene on stdout (progress goes to stderr).
   --mesh FILE.obj   benchmark this OBJ file (an object seen from around) instead of the
                     built-in scenes
   --scenes LIST     comma-separated built-in scenes: bunny,terrain,city (default: all)
-  --rays N          rays per ray set (default 1000000, or 100000 with --quick)
+  --rays N          rays per ray set (default 1000000, or 100000 with --quick); the fixed
+                    and split-axis orderings get at most 200000
   --leaf N          largest leaf size, 1 to 16 (default 4)
-  --quick           100000 rays (unless --rays) and the pns ordering only, a smoke test
+  --quick           100000 rays (unless --rays), the pns ordering only and three batch
+                    sizes, a smoke test
 
 query: answers the rays of RAYS.bin against MESH.obj, writes the answers to HITS.bin and
 prints one JSON line of statistics on stderr.
@@ -47,8 +49,10 @@ prints one JSON line of statistics on stderr.
   --tree TREE       aabb (32-byte nodes, the default) or quantized (16-byte nodes)
   --kernel KERNEL   watertight (the default, exact on shared edges) or moller-trumbore
   --leaf N          largest leaf size, 1 to 16 (default 4)
-  --batched         reserved for the batched engine (rays are still answered one by one)
-  --threads N       reserved for the batched engine (queries are still single-threaded)
+  --batched         answer the rays as one batch (same answers, usually faster) instead
+                    of one by one
+  --threads N       run the query on N threads (default: 1 for the per-ray engine,
+                    rayon's default, one per core, for --batched)
 
 Exit codes: 0 success, 1 bad input or output file, 2 bad command line.
 ";
@@ -117,9 +121,9 @@ pub struct QueryArgs {
     pub tree: TreeKind,
     pub kernel: Kernel,
     pub leaf: u32,
-    /// Reserved: asks for the batched engine.
+    /// Use the batched engine instead of the per-ray one.
     pub batched: bool,
-    /// Reserved: threads for the batched engine.
+    /// Threads to run on (`None`: one for the per-ray engine, rayon's default for batched).
     pub threads: Option<usize>,
 }
 

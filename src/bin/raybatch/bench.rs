@@ -1,8 +1,14 @@
-//! `raybatch bench`: build times, memory and single-threaded query speed of every tree and
-//! child ordering on the built-in scenes (or a user mesh), as one Markdown table per scene.
+//! `raybatch bench`: build times, memory and query speed of every tree and child ordering on
+//! the built-in scenes (or a user mesh), as Markdown on stdout, per scene:
 //!
-//! The timed queries are the entries of [`COLUMNS`]; each goes through a
-//! [`QueryRunner`], so a batched engine only needs new entries there, not new code here.
+//! 1. the main table: per-ray speed on one thread of every tree and ordering, one column per
+//!    entry of [`COLUMNS`] (pns on every ray; fixed and split-axis on at most
+//!    [`VARIANT_RAYS`], to keep the full run short);
+//! 2. the triangle kernels on the default tree (one line);
+//! 3. per-ray vs batched on the pns trees ([`compare::batched_section`]);
+//! 4. on the bunny only, the batch size sweep and the partition kernels.
+//!
+//! Every timed query is a [`crate::runner::Query`] run by [`crate::workload`].
 
 use std::path::Path;
 use std::sync::Arc;
@@ -11,85 +17,54 @@ use raybatch::scenes::{self, RaySet, Scene, SceneKind};
 use raybatch::tree::aabb_tree::NodeFormat;
 use raybatch::tree::full_nodes::FullNodes;
 use raybatch::tree::quantized_nodes::QuantizedNodes;
-use raybatch::{AabbTree, BuildOptions, Bvh, ChildOrdering, Kernel, Mesh, Ray};
+use raybatch::{AabbTree, BuildOptions, Bvh, ChildOrdering, Mesh};
 
 use crate::args::BenchArgs;
+use crate::compare::{self, BatchedRow, Subject};
 use crate::error::CliError;
 use crate::inputs::load_mesh;
-use crate::measure::{Measurement, measure, time_ms};
-use crate::runner::{Engine, Query, QueryKind, QueryRunner};
-use crate::table::{Align, Table};
+use crate::measure::time_ms;
+use crate::runner::Engine;
+use crate::table::{Align, Table, ratio, thousands};
+use crate::workload::{COLUMNS, PASSES, RaySets, speed};
 
 /// The built-in scenes `--scenes` accepts.
 pub const SCENE_NAMES: [&str; 3] = ["bunny", "terrain", "city"];
 
-/// Rays per set by default (the bunny included), with `--quick`, and the seed they come from.
+/// Rays per set by default (the bunny included), with `--quick`, and at most for the orderings
+/// other than pns.
 const DEFAULT_RAYS: usize = 1_000_000;
 const QUICK_RAYS: usize = 100_000;
-const RAY_SEED: u64 = 1;
-/// Timed passes over each ray set; the fastest counts.
-const PASSES: usize = 2;
-
-/// One timed query: what is asked, of which rays, by which engine.
-#[derive(Clone, Copy, Debug)]
-struct Column {
-    kind: QueryKind,
-    set: RaySet,
-    engine: Engine,
-}
-
-impl Column {
-    const fn per_ray(kind: QueryKind, set: RaySet) -> Self {
-        Self {
-            kind,
-            set,
-            engine: Engine::PerRay,
-        }
-    }
-
-    fn title(&self) -> String {
-        match self.engine {
-            Engine::PerRay => format!("{} {}", self.kind.name(), self.set),
-        }
-    }
-
-    fn query(&self) -> Query {
-        Query {
-            kind: self.kind,
-            kernel: Kernel::Watertight,
-            engine: self.engine,
-        }
-    }
-}
-
-/// The query columns of every table, in order.
-const COLUMNS: [Column; 6] = [
-    Column::per_ray(QueryKind::Closest, RaySet::Incoherent),
-    Column::per_ray(QueryKind::Closest, RaySet::OutsideIn),
-    Column::per_ray(QueryKind::Closest, RaySet::Camera),
-    Column::per_ray(QueryKind::Closest, RaySet::Short),
-    Column::per_ray(QueryKind::Any, RaySet::LineOfSight),
-    Column::per_ray(QueryKind::Any, RaySet::Short),
-];
+const VARIANT_RAYS: usize = 200_000;
+/// Batch sizes of the sweep (below the ray count; the whole set is always the last size).
+const SWEEP_SIZES: [usize; 6] = [64, 256, 1 << 10, 1 << 12, 1 << 14, 1 << 16];
+const QUICK_SWEEP_SIZES: [usize; 2] = [64, 1 << 12];
 
 /// What every scene is run with.
 struct Plan {
     rays: usize,
+    /// Rays per set for the orderings other than pns.
+    variant_rays: usize,
     leaf: u32,
     orderings: &'static [ChildOrdering],
+    batch_sizes: &'static [usize],
 }
 
 impl Plan {
     fn from_args(args: &BenchArgs) -> Self {
         let default_rays = if args.quick { QUICK_RAYS } else { DEFAULT_RAYS };
+        let rays = args.rays.unwrap_or(default_rays);
+        let (orderings, batch_sizes): (&'static [_], &'static [_]) = if args.quick {
+            (&[ChildOrdering::Pns], &QUICK_SWEEP_SIZES)
+        } else {
+            (&ChildOrdering::ALL, &SWEEP_SIZES)
+        };
         Self {
-            rays: args.rays.unwrap_or(default_rays),
+            rays,
+            variant_rays: rays.min(VARIANT_RAYS),
             leaf: args.leaf,
-            orderings: if args.quick {
-                &[ChildOrdering::Pns]
-            } else {
-                &ChildOrdering::ALL
-            },
+            orderings,
+            batch_sizes,
         }
     }
 
@@ -98,6 +73,11 @@ impl Plan {
             .with_leaf_size(self.leaf)
             .with_ordering(ordering)
     }
+
+    /// Whether some ordering runs on fewer rays than pns.
+    fn has_variant_rays(&self) -> bool {
+        self.variant_rays < self.rays && self.orderings.iter().any(|&o| o != ChildOrdering::Pns)
+    }
 }
 
 /// A scene ready to benchmark (user meshes have no `'static` name, hence not [`Scene`]).
@@ -105,6 +85,8 @@ struct BenchScene {
     name: String,
     mesh: Arc<Mesh>,
     kind: SceneKind,
+    /// Also run the batch size sweep and the partition kernels (the built-in bunny).
+    detailed: bool,
 }
 
 impl From<Scene> for BenchScene {
@@ -113,6 +95,7 @@ impl From<Scene> for BenchScene {
             name: scene.name.to_string(),
             mesh: Arc::new(scene.mesh),
             kind: scene.kind,
+            detailed: scene.name == "bunny",
         }
     }
 }
@@ -158,29 +141,36 @@ fn load_user_mesh(path: &Path) -> Result<BenchScene, CliError> {
         name: name.to_string_lossy().into_owned(),
         mesh: Arc::new(mesh),
         kind: SceneKind::Object,
+        detailed: false,
     })
 }
 
-/// The ray sets of one scene, generated once and shared by every tree.
-struct RaySets {
-    sets: Vec<(RaySet, Vec<Ray>)>,
+/// The ray sets of one scene: every ray for pns, maybe fewer for the other orderings.
+struct SceneRays {
+    all: RaySets,
+    variants: Option<RaySets>,
 }
 
-impl RaySets {
-    fn generate(scene: &BenchScene, count: usize) -> Self {
-        let sets = RaySet::ALL
-            .into_iter()
-            .map(|set| {
-                let rays = scenes::generate(set, &scene.mesh, scene.kind, count, RAY_SEED);
-                (set, rays)
-            })
-            .collect();
-        Self { sets }
+impl SceneRays {
+    fn generate(scene: &BenchScene, plan: &Plan) -> Self {
+        let generate = |count| {
+            progress(&format!(
+                "{}: generating {count} rays per set ...",
+                scene.name
+            ));
+            RaySets::generate(&scene.mesh, scene.kind, count)
+        };
+        Self {
+            all: generate(plan.rays),
+            variants: plan.has_variant_rays().then(|| generate(plan.variant_rays)),
+        }
     }
 
-    fn get(&self, set: RaySet) -> &[Ray] {
-        let found = self.sets.iter().find(|(s, _)| *s == set);
-        &found.expect("every ray set is generated").1
+    fn for_ordering(&self, ordering: ChildOrdering) -> &RaySets {
+        match (&self.variants, ordering) {
+            (Some(variants), o) if o != ChildOrdering::Pns => variants,
+            _ => &self.all,
+        }
     }
 }
 
@@ -192,39 +182,96 @@ struct Row {
     build_ms: f64,
     parallel_build_ms: f64,
     bytes_per_triangle: f64,
-    /// Mrays/s per entry of [`COLUMNS`].
+    /// Per-ray Mrays/s on one thread, per entry of [`COLUMNS`].
     mrays: Vec<f64>,
+}
+
+/// Everything printed for one scene, gathered tree by tree.
+#[derive(Default)]
+struct SceneReport {
+    rows: Vec<Row>,
+    kernels: String,
+    batched: Vec<BatchedRow>,
+    /// The batch size sweep and the partition kernels (detailed scenes only).
+    details: Vec<String>,
+}
+
+impl SceneReport {
+    fn render(&self, scene: &BenchScene, plan: &Plan) -> String {
+        let mut sections = vec![
+            heading(scene, plan),
+            results_table(&self.rows).render(),
+            self.kernels.clone(),
+            compare::batched_section(&self.batched, plan.rays),
+        ];
+        sections.extend(self.details.iter().cloned());
+        // One blank line between sections, whether or not they end in a newline.
+        let sections: Vec<&str> = sections.iter().map(|s| s.trim_end()).collect();
+        sections.join("\n\n") + "\n"
+    }
 }
 
 /// Builds every tree, measures it, and returns the scene's Markdown section.
 fn bench_scene(scene: &BenchScene, plan: &Plan) -> String {
-    progress(&format!(
-        "{}: generating {} rays per set ...",
-        scene.name, plan.rays
-    ));
-    let rays = RaySets::generate(scene, plan.rays);
-    let mut rows = Vec::new();
-    let mut kernels = String::new();
-    for &ordering in plan.orderings {
-        let (row, tree) = bench_tree::<FullNodes>(scene, plan, ordering, &rays);
-        rows.push(row);
-        if ordering == ChildOrdering::Pns {
-            // The default tree: compare the kernels on it while it exists.
-            kernels = compare_kernels(&scene.name, &tree, rays.get(RaySet::Incoherent));
-        }
-    }
-    for &ordering in plan.orderings {
-        rows.push(bench_tree::<QuantizedNodes>(scene, plan, ordering, &rays).0);
-    }
-    format!(
-        "{}\n{}\n{kernels}\n",
-        heading(scene, plan),
-        results_table(&rows).render()
-    )
+    let rays = SceneRays::generate(scene, plan);
+    let mut report = SceneReport::default();
+    bench_format::<FullNodes>(scene, plan, &rays, &mut report, true);
+    bench_format::<QuantizedNodes>(scene, plan, &rays, &mut report, false);
+    report.render(scene, plan)
 }
 
-/// Builds one tree (single-threaded, then in parallel) and times every column on it; returns
-/// its row and the tree.
+/// Benchmarks node format `N` with every ordering; the pns tree also gets the batched
+/// comparison, and the extra comparisons if it is the `default` format.
+fn bench_format<N: NodeFormat>(
+    scene: &BenchScene,
+    plan: &Plan,
+    rays: &SceneRays,
+    report: &mut SceneReport,
+    default: bool,
+) {
+    for &ordering in plan.orderings {
+        let (row, tree) = bench_tree::<N>(scene, plan, ordering, rays.for_ordering(ordering));
+        if ordering == ChildOrdering::Pns {
+            let subject = Subject {
+                scene: &scene.name,
+                label: format!("{}/{}", N::NAME, ordering.name()),
+                tree: &tree,
+            };
+            let batched = compare::batched_rows(&subject, &row.mrays, &rays.all);
+            report.batched.extend(batched);
+            if default {
+                default_tree_extras(&subject, scene, plan, &rays.all, &row, report);
+            }
+        }
+        report.rows.push(row);
+    }
+}
+
+/// The comparisons run on the default tree only: kernels, and on detailed scenes the batch size
+/// sweep and the partition kernels.
+fn default_tree_extras<N: NodeFormat>(
+    subject: &Subject<AabbTree<N>>,
+    scene: &BenchScene,
+    plan: &Plan,
+    rays: &RaySets,
+    row: &Row,
+    report: &mut SceneReport,
+) {
+    let incoherent = rays.get(RaySet::Incoherent);
+    report.kernels = compare::compare_kernels(subject, incoherent);
+    if scene.detailed {
+        // COLUMNS[0] is closest incoherent.
+        let per_ray = row.mrays[0];
+        let sweep = compare::batch_size_sweep(subject, incoherent, per_ray, plan.batch_sizes);
+        report.details.push(sweep);
+        report
+            .details
+            .push(compare::compare_partitions(subject, incoherent));
+    }
+}
+
+/// Builds one tree (single-threaded, then in parallel) and times every column on it, per ray
+/// on one thread; returns its row and the tree.
 fn bench_tree<N: NodeFormat>(
     scene: &BenchScene,
     plan: &Plan,
@@ -238,7 +285,7 @@ fn bench_tree<N: NodeFormat>(
     progress(&format!("{label}: querying ..."));
     let mrays = COLUMNS
         .iter()
-        .map(|c| time_query(&tree, c.query(), rays.get(c.set)).mrays_per_s())
+        .map(|c| speed(&tree, c.query(Engine::PerRay), rays.get(c.set)))
         .collect();
     let row = Row {
         tree: N::NAME,
@@ -258,46 +305,29 @@ fn build<N: NodeFormat>(mesh: &Arc<Mesh>, options: BuildOptions) -> (AabbTree<N>
     (tree.expect("the benchmark's trees always build"), ms)
 }
 
-/// Best of [`PASSES`] runs of `query` over `rays`.
-fn time_query<T: Bvh>(tree: &T, query: Query, rays: &[Ray]) -> Measurement {
-    let mut runner = QueryRunner::new(tree, query, rays.len());
-    measure(rays, PASSES, |chunk| runner.run(chunk))
-}
-
-/// One line comparing the triangle kernels for closest hits on `tree` (the default one,
-/// aabb/pns).
-fn compare_kernels<T: Bvh>(scene_name: &str, tree: &T, rays: &[Ray]) -> String {
-    progress(&format!("{scene_name}: comparing kernels ..."));
-    let speed = |kernel| {
-        let query = Query {
-            kind: QueryKind::Closest,
-            kernel,
-            engine: Engine::PerRay,
-        };
-        time_query(tree, query, rays).mrays_per_s()
-    };
-    let (watertight, moller) = (speed(Kernel::Watertight), speed(Kernel::MollerTrumbore));
-    format!(
-        "Kernels, closest incoherent on aabb/pns: {} {watertight:.2} Mrays/s, {} {moller:.2} \
-         Mrays/s ({} / {} = {}).",
-        Kernel::Watertight.name(),
-        Kernel::MollerTrumbore.name(),
-        Kernel::MollerTrumbore.name(),
-        Kernel::Watertight.name(),
-        ratio(moller / watertight),
-    )
-}
-
 fn heading(scene: &BenchScene, plan: &Plan) -> String {
     format!(
-        "### {} ({} triangles)\n\nQueries in Mrays/s, one thread, best of {PASSES} passes over \
-         {} rays per set; leaf size {}. \"vs aabb\" and \"vs fixed\": speed relative to the aabb \
+        "### {} ({} triangles)\n\nQueries in Mrays/s, per ray, one thread, best of {PASSES} \
+         passes over {}; leaf size {}. \"vs aabb\" and \"vs fixed\": speed relative to the aabb \
          tree with the same ordering and to the same tree with the fixed ordering (geometric \
          mean over the query columns).\n",
         scene.name,
         thousands(scene.mesh.triangle_count()),
-        thousands(plan.rays),
+        ray_counts(plan),
         plan.leaf,
+    )
+}
+
+/// How many rays each ordering was timed on, for the caption.
+fn ray_counts(plan: &Plan) -> String {
+    let all = thousands(plan.rays);
+    if !plan.has_variant_rays() {
+        return format!("{all} rays per set");
+    }
+    format!(
+        "{all} rays per set for pns and {} for the other orderings (same distributions, so \
+         the speeds compare)",
+        thousands(plan.variant_rays)
     )
 }
 
@@ -349,27 +379,7 @@ fn speedup(row: &Row, base: &Row) -> f64 {
     (logs / row.mrays.len() as f64).exp()
 }
 
-fn ratio(x: f64) -> String {
-    if x.is_finite() {
-        format!("{x:.2}x")
-    } else {
-        "-".to_string()
-    }
-}
-
-/// `1234567` as `1,234,567`.
-fn thousands(n: usize) -> String {
-    let digits = n.to_string();
-    let mut out = String::new();
-    for (i, d) in digits.chars().enumerate() {
-        if i > 0 && (digits.len() - i).is_multiple_of(3) {
-            out.push(',');
-        }
-        out.push(d);
-    }
-    out
-}
-
-fn progress(message: &str) {
+/// Reports progress on stderr.
+pub fn progress(message: &str) {
     eprintln!("{message}");
 }

@@ -1,7 +1,8 @@
 //! The one error type of the command-line tool, and the exit code each kind maps to.
 //!
 //! Usage errors (bad or missing flags) exit with 2 and remind the user of the usage; input
-//! errors (a missing file, a malformed OBJ, a truncated ray file, a failed write) exit with 1.
+//! errors (a missing file, a malformed OBJ, a truncated ray file, a failed write, threads the
+//! system refuses to start) exit with 1.
 
 use std::fmt;
 use std::process::ExitCode;
@@ -11,7 +12,7 @@ use std::process::ExitCode;
 pub enum CliError {
     /// The command line is wrong: exit code 2, usage reminder.
     Usage(String),
-    /// The command line is fine but an input or output file is not: exit code 1.
+    /// The command line is fine but an input or output file (or the system) is not: exit code 1.
     Input(String),
 }
 

@@ -6,6 +6,7 @@
 mod args;
 mod atomic;
 mod bench;
+mod compare;
 mod error;
 mod formats;
 mod inputs;
@@ -14,6 +15,7 @@ mod measure;
 mod query;
 mod runner;
 mod table;
+mod workload;
 
 use std::ffi::OsString;
 use std::process::ExitCode;

@@ -2,14 +2,18 @@
 //!
 //! Every input is read and checked, the tree built and every ray answered before the output is
 //! touched; the output is then written all or nothing ([`write_atomically`]). Statistics go to
-//! stderr as one JSON line.
+//! stderr as one JSON line, naming the engine (`per-ray` or `batched`) and the thread count.
+//!
+//! `--batched` answers through the batched engine (by-octant ordering, the CPU's fastest
+//! partition kernel); `--threads N` runs the query in a rayon pool of `N` threads (see
+//! [`crate::runner`]). Every combination writes the same bytes.
 
 use std::path::Path;
 
 use raybatch::tree::aabb_tree::NodeFormat;
 use raybatch::tree::full_nodes::FullNodes;
 use raybatch::tree::quantized_nodes::QuantizedNodes;
-use raybatch::{AabbTree, BuildOptions, Mesh, Ray};
+use raybatch::{AabbTree, BatchOrdering, BuildOptions, Mesh, Ray};
 
 use crate::args::{QueryArgs, TreeKind};
 use crate::atomic::write_atomically;
@@ -27,6 +31,7 @@ struct Answers {
     build_ms: f64,
     query: Measurement,
     engine: Engine,
+    threads: usize,
 }
 
 /// Runs the command.
@@ -66,12 +71,13 @@ fn answer<N: NodeFormat>(mesh: Mesh, rays: &[Ray], args: &QueryArgs) -> Result<A
     let options = BuildOptions::default().with_leaf_size(args.leaf);
     let (tree, build_ms) = time_ms(|| AabbTree::<N>::build(mesh, &options));
     let tree = tree.map_err(|e| CliError::input(format!("{}: {e}", args.mesh.display())))?;
-    let query = Query {
-        kind: args.kind,
-        kernel: args.kernel,
-        engine: engine_for(args),
-    };
-    let mut runner = QueryRunner::new(&tree, query, rays.len());
+    let query = query_for(args);
+    let mut runner = QueryRunner::new(&tree, query, rays.len()).map_err(|e| {
+        CliError::input(format!(
+            "cannot start {} threads: {e}",
+            query.thread_count()
+        ))
+    })?;
     let measurement = measure(rays, 1, |chunk| runner.run(chunk));
     let bytes = match args.kind {
         QueryKind::Closest => encode_closest(runner.closest()),
@@ -82,16 +88,21 @@ fn answer<N: NodeFormat>(mesh: Mesh, rays: &[Ray], args: &QueryArgs) -> Result<A
         build_ms,
         query: measurement,
         engine: query.engine,
+        threads: query.thread_count(),
     })
 }
 
-/// The engine `--batched` and `--threads` ask for. Both flags are reserved for the batched
-/// engine, which is not wired yet: every request is answered ray by ray on this thread, and the
-/// JSON line names the engine actually used.
-fn engine_for(args: &QueryArgs) -> Engine {
-    match (args.batched, args.threads) {
-        (false, None) => Engine::PerRay,
-        (true, _) | (_, Some(_)) => Engine::PerRay,
+/// The query the flags ask for: `--batched` picks the engine, `--threads` the pool.
+fn query_for(args: &QueryArgs) -> Query {
+    let engine = if args.batched {
+        Engine::batched(BatchOrdering::ByOctant)
+    } else {
+        Engine::PerRay
+    };
+    let query = Query::new(args.kind, args.kernel, engine);
+    match args.threads {
+        Some(n) => query.with_threads(n),
+        None => query,
     }
 }
 
@@ -103,6 +114,7 @@ fn report(args: &QueryArgs, triangles: usize, answers: &Answers) -> JsonLine {
         .str("kind", args.kind.name())
         .str("kernel", args.kernel.name())
         .str("engine", answers.engine.name())
+        .int("threads", answers.threads)
         .num("build_ms", answers.build_ms)
         .num("query_ms", answers.query.seconds * 1e3)
         .num("mrays_per_s", answers.query.mrays_per_s())

@@ -1,11 +1,20 @@
 //! Answering a whole ray set with one tree: the single place where query engines plug in.
 //!
-//! A [`QueryRunner`] owns its output buffers, so that timing a pass measures the queries and the
-//! writing of their answers, not allocation, and so that every engine is timed doing the same
-//! work. Today the only engine is [`Engine::PerRay`]; a batched engine (`tree.cast_rays(&rays,
-//! &mut hits)` style) becomes one more variant and one more arm in [`QueryRunner::run`].
+//! A [`QueryRunner`] owns its output buffers and its thread pool, so that timing a pass
+//! measures the queries and the writing of their answers, not allocation or thread start-up,
+//! and so that every engine is timed doing the same work. Two engines: [`Engine::PerRay`]
+//! (`cast_ray_with` / `occluded_with` on each ray) and [`Engine::Batched`] (`cast_rays_with` /
+//! `occluded_batch_with` on the whole slice).
+//!
+//! Threads ([`Query::threads`]): `Some(1)` runs everything on the calling thread; `Some(n)`
+//! with `n > 1` runs the query inside a rayon pool of `n` threads (per-ray queries split the rays
+//! with a parallel iterator, batched ones turn on parallel batching); `None` runs per-ray
+//! queries on the calling thread and batched ones in rayon's default pool.
 
-use raybatch::{Bvh, Hit, Kernel, Ray, RayQueries};
+use raybatch::query::batch::PartitionKernel;
+use raybatch::{BatchOptions, BatchOrdering, BatchQueries, Bvh, Hit, Kernel, Ray, RayQueries};
+use rayon::prelude::*;
+use rayon::{ThreadPool, ThreadPoolBuildError, ThreadPoolBuilder};
 
 /// Closest hit or any hit.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -36,12 +45,26 @@ impl QueryKind {
 pub enum Engine {
     /// One ray at a time through [`RayQueries`].
     PerRay,
+    /// The whole slice at once through [`BatchQueries`].
+    Batched {
+        ordering: BatchOrdering,
+        partition: PartitionKernel,
+    },
 }
 
 impl Engine {
+    /// The batched engine with `ordering` and the fastest partition kernel of this CPU.
+    pub fn batched(ordering: BatchOrdering) -> Self {
+        Engine::Batched {
+            ordering,
+            partition: PartitionKernel::detect(),
+        }
+    }
+
     pub fn name(self) -> &'static str {
         match self {
             Engine::PerRay => "per-ray",
+            Engine::Batched { .. } => "batched",
         }
     }
 }
@@ -52,59 +75,174 @@ pub struct Query {
     pub kind: QueryKind,
     pub kernel: Kernel,
     pub engine: Engine,
+    /// Threads to run on (see the module docs); `None`: the engine's default.
+    pub threads: Option<usize>,
+}
+
+impl Query {
+    /// A query with the engine's default threads.
+    pub fn new(kind: QueryKind, kernel: Kernel, engine: Engine) -> Self {
+        Self {
+            kind,
+            kernel,
+            engine,
+            threads: None,
+        }
+    }
+
+    /// The same query on `threads` threads (at least 1).
+    pub fn with_threads(self, threads: usize) -> Self {
+        Self {
+            threads: Some(threads.max(1)),
+            ..self
+        }
+    }
+
+    /// How many threads the query runs on.
+    pub fn thread_count(&self) -> usize {
+        match (self.threads, self.engine) {
+            (Some(n), _) => n,
+            (None, Engine::PerRay) => 1,
+            (None, Engine::Batched { .. }) => rayon::current_num_threads(),
+        }
+    }
+
+    /// Whether the work is split over several threads.
+    fn parallel(&self) -> bool {
+        match self.threads {
+            Some(n) => n > 1,
+            None => matches!(self.engine, Engine::Batched { .. }),
+        }
+    }
+
+    /// The options of the batched engine (the defaults for the per-ray one).
+    fn batch_options(&self) -> BatchOptions {
+        let options = BatchOptions::default()
+            .with_kernel(self.kernel)
+            .with_parallel(self.parallel());
+        match self.engine {
+            Engine::PerRay => options,
+            Engine::Batched {
+                ordering,
+                partition,
+            } => options.with_ordering(ordering).with_partition(partition),
+        }
+    }
+
+    /// A pool of its own if the query asks for several threads.
+    fn pool(&self) -> Result<Option<ThreadPool>, ThreadPoolBuildError> {
+        match self.threads {
+            Some(n) if n > 1 => ThreadPoolBuilder::new().num_threads(n).build().map(Some),
+            _ => Ok(None),
+        }
+    }
 }
 
 /// Answers ray sets with one tree and one [`Query`], into buffers it keeps between runs.
 pub struct QueryRunner<'t, T: Bvh> {
     tree: &'t T,
     query: Query,
+    /// The pool the query runs in (`None`: the current thread, or rayon's default pool).
+    pool: Option<ThreadPool>,
+    answers: Answers,
+}
+
+impl<'t, T: Bvh> QueryRunner<'t, T> {
+    /// A runner whose buffers already hold room for `capacity` rays, with its thread pool
+    /// started; fails only if the system refuses the threads.
+    pub fn new(tree: &'t T, query: Query, capacity: usize) -> Result<Self, ThreadPoolBuildError> {
+        Ok(Self {
+            tree,
+            query,
+            pool: query.pool()?,
+            answers: Answers::with_capacity(query.kind, capacity),
+        })
+    }
+
+    /// Answers `rays` (replacing the previous answers); returns how many rays hit something.
+    pub fn run(&mut self, rays: &[Ray]) -> usize {
+        let (tree, query, answers) = (self.tree, &self.query, &mut self.answers);
+        match &self.pool {
+            Some(pool) => pool.install(|| answers.fill(tree, query, rays)),
+            None => answers.fill(tree, query, rays),
+        }
+    }
+
+    /// The closest hit of each ray of the last run (closest-hit queries only).
+    pub fn closest(&self) -> &[Option<Hit>] {
+        &self.answers.closest
+    }
+
+    /// Whether each ray of the last run was occluded (any-hit queries only).
+    pub fn occluded(&self) -> &[bool] {
+        &self.answers.occluded
+    }
+}
+
+/// The output buffers of a runner.
+struct Answers {
     /// Closest-hit answers of the last run (empty for any-hit queries).
     closest: Vec<Option<Hit>>,
     /// Any-hit answers of the last run (empty for closest-hit queries).
     occluded: Vec<bool>,
 }
 
-impl<'t, T: Bvh> QueryRunner<'t, T> {
-    /// A runner whose buffers already hold room for `capacity` rays.
-    pub fn new(tree: &'t T, query: Query, capacity: usize) -> Self {
-        let (closest, occluded) = match query.kind {
+impl Answers {
+    fn with_capacity(kind: QueryKind, capacity: usize) -> Self {
+        let (closest, occluded) = match kind {
             QueryKind::Closest => (Vec::with_capacity(capacity), Vec::new()),
             QueryKind::Any => (Vec::new(), Vec::with_capacity(capacity)),
         };
-        Self {
-            tree,
-            query,
-            closest,
-            occluded,
-        }
+        Self { closest, occluded }
     }
 
-    /// Answers `rays` (replacing the previous answers); returns how many rays hit something.
-    pub fn run(&mut self, rays: &[Ray]) -> usize {
-        let (tree, kernel) = (self.tree, self.query.kernel);
+    /// Answers `rays` on the current thread or pool; returns how many rays hit something.
+    fn fill<T: Bvh>(&mut self, tree: &T, query: &Query, rays: &[Ray]) -> usize {
         self.closest.clear();
         self.occluded.clear();
-        match (self.query.engine, self.query.kind) {
-            (Engine::PerRay, QueryKind::Closest) => {
-                let answers = rays.iter().map(|r| tree.cast_ray_with(r, kernel));
-                self.closest.extend(answers);
+        match query.kind {
+            QueryKind::Closest => {
+                self.fill_closest(tree, query, rays);
                 self.closest.iter().filter(|h| h.is_some()).count()
             }
-            (Engine::PerRay, QueryKind::Any) => {
-                let answers = rays.iter().map(|r| tree.occluded_with(r, kernel));
-                self.occluded.extend(answers);
+            QueryKind::Any => {
+                self.fill_occluded(tree, query, rays);
                 self.occluded.iter().filter(|&&o| o).count()
             }
         }
     }
 
-    /// The closest hit of each ray of the last run (closest-hit queries only).
-    pub fn closest(&self) -> &[Option<Hit>] {
-        &self.closest
+    fn fill_closest<T: Bvh>(&mut self, tree: &T, query: &Query, rays: &[Ray]) {
+        let kernel = query.kernel;
+        let answer = |r: &Ray| tree.cast_ray_with(r, kernel);
+        match query.engine {
+            Engine::PerRay if query.parallel() => rays
+                .par_iter()
+                .map(answer)
+                .collect_into_vec(&mut self.closest),
+            Engine::PerRay => self.closest.extend(rays.iter().map(answer)),
+            Engine::Batched { .. } => {
+                self.closest.resize(rays.len(), None);
+                tree.cast_rays_with(rays, &mut self.closest, &query.batch_options())
+                    .expect("one answer slot per ray");
+            }
+        }
     }
 
-    /// Whether each ray of the last run was occluded (any-hit queries only).
-    pub fn occluded(&self) -> &[bool] {
-        &self.occluded
+    fn fill_occluded<T: Bvh>(&mut self, tree: &T, query: &Query, rays: &[Ray]) {
+        let kernel = query.kernel;
+        let answer = |r: &Ray| tree.occluded_with(r, kernel);
+        match query.engine {
+            Engine::PerRay if query.parallel() => rays
+                .par_iter()
+                .map(answer)
+                .collect_into_vec(&mut self.occluded),
+            Engine::PerRay => self.occluded.extend(rays.iter().map(answer)),
+            Engine::Batched { .. } => {
+                self.occluded.resize(rays.len(), false);
+                tree.occluded_batch_with(rays, &mut self.occluded, &query.batch_options())
+                    .expect("one answer slot per ray");
+            }
+        }
     }
 }

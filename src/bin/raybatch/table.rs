@@ -1,4 +1,5 @@
-//! A Markdown table with padded columns, readable as plain text and pasteable into a README.
+//! A Markdown table with padded columns, readable as plain text and pasteable into a README,
+//! and the formatting of its cells.
 
 /// How a column's cells are aligned.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -69,4 +70,31 @@ impl Table {
             .collect();
         format!("| {} |\n", padded.join(" | "))
     }
+}
+
+/// A speed in Mrays/s.
+pub fn mrays(x: f64) -> String {
+    format!("{x:.2}")
+}
+
+/// A ratio such as `1.25x`, or `-` if it is not a number.
+pub fn ratio(x: f64) -> String {
+    if x.is_finite() {
+        format!("{x:.2}x")
+    } else {
+        "-".to_string()
+    }
+}
+
+/// `1234567` as `1,234,567`.
+pub fn thousands(n: usize) -> String {
+    let digits = n.to_string();
+    let mut out = String::new();
+    for (i, d) in digits.chars().enumerate() {
+        if i > 0 && (digits.len() - i).is_multiple_of(3) {
+            out.push(',');
+        }
+        out.push(d);
+    }
+    out
 }

@@ -1,11 +1,15 @@
 //! The batch's active rays in structure-of-arrays form.
 //!
-//! Each ray keeps only what the box test reads: origin, inverse direction, current range end
-//! and its index in the batch, as eight 32-bit columns. The move-to-front partition
-//! ([`super::partition`]) moves the ray data itself rather than indices into it, so each box
-//! test streams through contiguous columns, 8 or 16 rays per instruction. The triangle
-//! kernels, which run far less often, read the full per-ray constants (`PreparedRay`) by index,
-//! which keeps them the very functions the single-ray path runs.
+//! Each ray is sixteen 32-bit columns: first what the box test reads (origin, inverse
+//! direction, current range end, index in the batch), then what the triangle kernels read
+//! (shear constants, direction, `tmin`, dominant axis). The move-to-front partition
+//! ([`super::partition`]) moves all of it rather than indices into it, so each box test streams
+//! through contiguous columns, 8 or 16 rays per instruction, and a leaf's triangle tests find
+//! their rays' constants right there instead of gathering them from a ray array scattered over
+//! megabytes (which cost a cache miss per ray and leaf). The kernels get a `PreparedRay`
+//! rebuilt from the same bits, so they stay the very functions the single-ray path runs.
+
+use glam::Vec3;
 
 use crate::geom::PreparedRay;
 
@@ -19,9 +23,19 @@ pub(crate) const IZ: usize = 5;
 /// Current upper end of the range: the best hit so far for closest-hit queries, `-inf` once an
 /// any-hit ray is answered (so every later box test drops it).
 pub(crate) const TMAX: usize = 6;
-/// Index of the ray in the batch (the only integer column).
+/// Index of the ray in the batch (an integer column).
 pub(crate) const ID: usize = 7;
-pub(crate) const COLUMNS: usize = 8;
+/// Triangle-kernel constants: shear, (subnormal-flushed) direction, `tmin`, and the dominant
+/// axis `kz` with the octant mask (an integer column: `kz | mask << 8`).
+pub(crate) const SX: usize = 8;
+pub(crate) const SY: usize = 9;
+pub(crate) const SZ: usize = 10;
+pub(crate) const DX: usize = 11;
+pub(crate) const DY: usize = 12;
+pub(crate) const DZ: usize = 13;
+pub(crate) const TMIN: usize = 14;
+pub(crate) const AXES: usize = 15;
+pub(crate) const COLUMNS: usize = 16;
 
 /// Extra spare slots: vector stores may write a full vector past the last miss.
 pub(crate) const SPARE_PADDING: usize = 16;
@@ -62,9 +76,35 @@ impl Lanes {
             ray.inv_dir.z.to_bits(),
             ray.tmax.to_bits(),
             id,
+            ray.shear.x.to_bits(),
+            ray.shear.y.to_bits(),
+            ray.shear.z.to_bits(),
+            ray.dir.x.to_bits(),
+            ray.dir.y.to_bits(),
+            ray.dir.z.to_bits(),
+            ray.tmin.to_bits(),
+            ray.kz as u32 | (ray.octant_mask as u32) << 8,
         ];
         for (col, v) in self.cols.iter_mut().zip(values) {
             col[lane] = v;
+        }
+    }
+
+    /// The prepared ray in lane `lane`, bit for bit as it was written (with the current
+    /// range end).
+    #[inline(always)]
+    pub fn ray(&self, lane: usize) -> PreparedRay {
+        let f = |c: usize| f32::from_bits(self.cols[c][lane]);
+        let axes = self.cols[AXES][lane];
+        PreparedRay {
+            origin: Vec3::new(f(OX), f(OY), f(OZ)),
+            dir: Vec3::new(f(DX), f(DY), f(DZ)),
+            inv_dir: Vec3::new(f(IX), f(IY), f(IZ)),
+            tmin: f(TMIN),
+            tmax: f(TMAX),
+            octant_mask: (axes >> 8) as u8,
+            kz: axes as u8,
+            shear: Vec3::new(f(SX), f(SY), f(SZ)),
         }
     }
 

@@ -26,8 +26,9 @@ use std::cell::RefCell;
 
 use rayon::prelude::*;
 
+use crate::geom::ray::flush_subnormals;
 use crate::geom::{
-    Kernel, KernelTask, MollerTrumbore, PreparedRay, Ray, TriangleTest, Watertight,
+    Kernel, KernelTask, MollerTrumbore, PreparedRay, Ray, TriangleTest, Watertight, octant,
 };
 use crate::query::Hit;
 use crate::query::single::RayQueries;
@@ -68,6 +69,11 @@ pub struct BatchOptions {
     pub min_batch: usize,
     /// Smallest chunk handed to one rayon task.
     pub min_chunk: usize,
+    /// Largest chunk traversed as one batch: bigger chunks share each node fetch among more
+    /// rays, smaller ones keep the working set in cache.
+    pub max_chunk: usize,
+    /// A node reached by fewer rays than this finishes its subtree one ray at a time.
+    pub single_ray_below: usize,
     /// Implementation of the box test over many rays ([`PartitionKernel::detect`] by
     /// default); all give identical results.
     pub partition: PartitionKernel,
@@ -81,6 +87,8 @@ impl Default for BatchOptions {
             parallel: true,
             min_batch: 32,
             min_chunk: 4096,
+            max_chunk: 1 << 20,
+            single_ray_below: 8,
             partition: PartitionKernel::detect(),
         }
     }
@@ -105,6 +113,14 @@ impl BatchOptions {
     }
     pub fn with_min_chunk(mut self, min_chunk: usize) -> Self {
         self.min_chunk = min_chunk.max(1);
+        self
+    }
+    pub fn with_max_chunk(mut self, max_chunk: usize) -> Self {
+        self.max_chunk = max_chunk.max(1);
+        self
+    }
+    pub fn with_single_ray_below(mut self, rays: usize) -> Self {
+        self.single_ray_below = rays;
         self
     }
     pub fn with_partition(mut self, partition: PartitionKernel) -> Self {
@@ -143,7 +159,6 @@ fn check_lengths(rays: usize, outputs: usize) -> Result<(), BatchError> {
 /// Per-thread working arrays, reused from call to call.
 #[derive(Default)]
 struct Scratch {
-    prepared: Vec<PreparedRay>,
     lanes: Lanes,
     stack: Vec<(u32, u32)>,
     best: Vec<Hit>,
@@ -169,39 +184,33 @@ const GROUPS: usize = 8;
 /// with a counting sort; returns where each group starts (group `g` is lanes
 /// `starts[g]..starts[g + 1]`). Invalid rays get no lane: they miss.
 fn prepare_groups(rays: &[Ray], ordering: BatchOrdering, s: &mut Scratch) -> [usize; GROUPS + 1] {
-    s.prepared.clear();
+    // Pass 1: each ray's group (GROUPS for an invalid ray), and the group sizes.
     s.keys.clear();
     let mut counts = [0usize; GROUPS + 1];
     for ray in rays {
-        let (prepared, key) = match PreparedRay::new(ray) {
-            Some(p) => match ordering {
-                BatchOrdering::ByOctant => (p, p.octant_mask.trailing_zeros() as u8),
-                BatchOrdering::Unordered => (p, 0),
-            },
-            None => (placeholder(), GROUPS as u8),
+        let key = match (ray.validate(), ordering) {
+            (Err(_), _) => GROUPS,
+            (Ok(()), BatchOrdering::ByOctant) => octant(flush_subnormals(ray.dir)) as usize,
+            (Ok(()), BatchOrdering::Unordered) => 0,
         };
-        counts[key as usize] += 1;
-        s.prepared.push(prepared);
-        s.keys.push(key);
+        counts[key] += 1;
+        s.keys.push(key as u8);
     }
     let mut starts = [0usize; GROUPS + 1];
     for g in 0..GROUPS {
         starts[g + 1] = starts[g] + counts[g];
     }
+    // Pass 2: prepare each valid ray straight into its lane.
     let mut next = starts;
     s.lanes.reset(starts[GROUPS]);
-    for (id, (&key, prepared)) in s.keys.iter().zip(&s.prepared).enumerate() {
-        if let Some(lane) = next.get_mut(key as usize).filter(|_| (key as usize) < GROUPS) {
-            s.lanes.set(*lane, prepared, id as u32);
+    for (id, (ray, &key)) in rays.iter().zip(&s.keys).enumerate() {
+        let prepared = PreparedRay::new(ray);
+        if let (Some(lane), Some(prepared)) = (next.get_mut(key as usize), prepared) {
+            s.lanes.set(*lane, &prepared, id as u32);
             *lane += 1;
         }
     }
     starts
-}
-
-/// A prepared ray that is never used (stands in for invalid rays so ids stay aligned).
-fn placeholder() -> PreparedRay {
-    PreparedRay::new(&Ray::new(glam::Vec3::ZERO, glam::Vec3::X)).expect("valid ray")
 }
 
 /// One group's traversal, packaged for [`Kernel::dispatch`].
@@ -212,6 +221,7 @@ struct GroupTask<'a, B: ?Sized, V> {
     end: usize,
     octant_mask: u8,
     partition: PartitionKernel,
+    single_ray_below: usize,
     visitor: &'a mut V,
 }
 
@@ -224,9 +234,9 @@ impl<B: Bvh + ?Sized, V: LaneVisitor> KernelTask for GroupTask<'_, B, V> {
             &mut s.lanes,
             self.start,
             self.end,
-            &s.prepared,
             self.octant_mask,
             self.partition,
+            self.single_ray_below,
             &mut s.stack,
             self.visitor,
         );
@@ -257,6 +267,7 @@ fn run_groups<B: Bvh + ?Sized, V: LaneVisitor>(
             end,
             octant_mask,
             partition: options.partition,
+            single_ray_below: options.single_ray_below,
             visitor: &mut *visitor,
         };
         // Rays of a group have different dominant axes, so the watertight kernel dispatches
@@ -278,13 +289,19 @@ fn closest_chunk<B: Bvh + ?Sized>(
         let starts = prepare_groups(rays, options.ordering, s);
         let mut best = std::mem::take(&mut s.best);
         best.clear();
-        best.extend(s.prepared.iter().map(|p| Hit {
-            t: p.tmax,
+        best.extend(rays.iter().map(|r| Hit {
+            t: r.tmax,
             triangle: u32::MAX,
             u: 0.0,
             v: 0.0,
         }));
-        run_groups(tree, options, &starts, s, &mut ClosestLanes { best: &mut best });
+        run_groups(
+            tree,
+            options,
+            &starts,
+            s,
+            &mut ClosestLanes { best: &mut best },
+        );
         for (out, b) in hits.iter_mut().zip(&best) {
             *out = (b.triangle != u32::MAX).then_some(*b);
         }
@@ -313,13 +330,15 @@ fn every_chunk<B: Bvh + ?Sized, F: Fn(usize, Hit)>(
     })
 }
 
-/// Chunk length for `n` rays: one chunk unless parallel, else about four per thread.
+/// Chunk length for `n` rays: at most `max_chunk` (so a chunk's lanes stay in cache), and
+/// when parallel, small enough to give each thread about four chunks.
 fn chunk_len(n: usize, options: &BatchOptions) -> usize {
-    if !options.parallel {
-        return n.max(1);
+    let mut chunk = n.min(options.max_chunk);
+    if options.parallel {
+        let per_thread = n.div_ceil(4 * rayon::current_num_threads());
+        chunk = chunk.min(per_thread.max(options.min_chunk));
     }
-    let per_thread = n.div_ceil(4 * rayon::current_num_threads());
-    per_thread.max(options.min_chunk).max(1)
+    chunk.max(1)
 }
 
 /// The batched queries, for every [`Bvh`]. Output slices must be as long as `rays`.
@@ -345,9 +364,15 @@ pub trait BatchQueries: Bvh {
             return Ok(());
         }
         let chunk = chunk_len(rays.len(), options);
-        rays.par_chunks(chunk)
-            .zip(hits.par_chunks_mut(chunk))
-            .for_each(|(r, h)| closest_chunk(self, r, h, options));
+        if options.parallel {
+            rays.par_chunks(chunk)
+                .zip(hits.par_chunks_mut(chunk))
+                .for_each(|(r, h)| closest_chunk(self, r, h, options));
+        } else {
+            rays.chunks(chunk)
+                .zip(hits.chunks_mut(chunk))
+                .for_each(|(r, h)| closest_chunk(self, r, h, options));
+        }
         Ok(())
     }
 
@@ -372,9 +397,15 @@ pub trait BatchQueries: Bvh {
             return Ok(());
         }
         let chunk = chunk_len(rays.len(), options);
-        rays.par_chunks(chunk)
-            .zip(occluded.par_chunks_mut(chunk))
-            .for_each(|(r, o)| any_chunk(self, r, o, options));
+        if options.parallel {
+            rays.par_chunks(chunk)
+                .zip(occluded.par_chunks_mut(chunk))
+                .for_each(|(r, o)| any_chunk(self, r, o, options));
+        } else {
+            rays.chunks(chunk)
+                .zip(occluded.chunks_mut(chunk))
+                .for_each(|(r, o)| any_chunk(self, r, o, options));
+        }
         Ok(())
     }
 
@@ -399,9 +430,15 @@ pub trait BatchQueries: Bvh {
             return;
         }
         let chunk = chunk_len(rays.len(), options);
-        rays.par_chunks(chunk)
-            .enumerate()
-            .for_each(|(c, r)| every_chunk(self, r, c * chunk, &f, options));
+        if options.parallel {
+            rays.par_chunks(chunk)
+                .enumerate()
+                .for_each(|(c, r)| every_chunk(self, r, c * chunk, &f, options));
+        } else {
+            rays.chunks(chunk)
+                .enumerate()
+                .for_each(|(c, r)| every_chunk(self, r, c * chunk, &f, options));
+        }
     }
 }
 

@@ -13,10 +13,11 @@
 
 use super::lanes::Lanes;
 use super::partition::{PartitionKernel, partition};
-use crate::geom::{PreparedRay, TriangleTest};
+use crate::geom::TriangleTest;
 use crate::query::Hit;
-use crate::tree::Bvh;
+use crate::query::single::{Visitor, traverse_below};
 use crate::tree::ordering::second_child_first;
+use crate::tree::{Bvh, NodeView};
 
 /// What a batched query does with each triangle hit.
 pub(crate) trait LaneVisitor {
@@ -33,9 +34,9 @@ pub(crate) fn traverse_group<B, K, V>(
     lanes: &mut Lanes,
     start: usize,
     end: usize,
-    prepared: &[PreparedRay],
     octant_mask: u8,
     partition_kernel: PartitionKernel,
+    single_ray_below: usize,
     stack: &mut Vec<(u32, u32)>,
     visitor: &mut V,
 ) where
@@ -60,12 +61,16 @@ pub(crate) fn traverse_group<B, K, V>(
         if active == 0 {
             continue;
         }
+        if active < single_ray_below {
+            finish_one_by_one::<B, K, V>(tree, lanes, start, active, node, visitor);
+            continue;
+        }
         for slot in node.first..node.first + node.count {
             let (triangle, corners) = tree.triangle(slot);
             for lane in start..start + active {
                 let id = lanes.id(lane);
                 let mut tmax = lanes.tmax(lane);
-                if let Some(h) = K::intersect(&prepared[id as usize], &corners, tmax) {
+                if let Some(h) = K::intersect(&lanes.ray(lane), &corners, tmax) {
                     let hit = Hit {
                         t: h.t,
                         triangle,
@@ -87,6 +92,54 @@ pub(crate) fn traverse_group<B, K, V>(
             stack.push((far, active as u32));
             stack.push((near, active as u32));
         }
+    }
+}
+
+/// Finishes the subtree under `node` for the `active` rays at `start..`, one ray at a time: when
+/// only a few rays are left, the per-node cost of the batch (partition, stack) outweighs what
+/// they share. The single-ray loop with the ray's current range gives the same answers (they do
+/// not depend on the visiting order).
+fn finish_one_by_one<B, K, V>(
+    tree: &B,
+    lanes: &mut Lanes,
+    start: usize,
+    active: usize,
+    node: NodeView,
+    visitor: &mut V,
+) where
+    B: Bvh + ?Sized,
+    K: TriangleTest,
+    V: LaneVisitor,
+{
+    for lane in start..start + active {
+        let id = lanes.id(lane);
+        let mut one = OneRay {
+            id,
+            tmax: lanes.tmax(lane),
+            visitor: &mut *visitor,
+        };
+        traverse_below::<B, K, _>(tree, &lanes.ray(lane), node, &mut one);
+        lanes.set_tmax(lane, one.tmax);
+    }
+}
+
+/// Adapts a [`LaneVisitor`] to the single-ray loop for one ray.
+struct OneRay<'a, V> {
+    id: u32,
+    tmax: f32,
+    visitor: &'a mut V,
+}
+
+impl<V: LaneVisitor> Visitor for OneRay<'_, V> {
+    #[inline(always)]
+    fn visit(&mut self, hit: Hit) -> bool {
+        self.visitor.visit(self.id, hit, &mut self.tmax);
+        // An any-hit visitor retires the ray by setting its range end to -inf.
+        self.tmax == f32::NEG_INFINITY
+    }
+    #[inline(always)]
+    fn tmax(&self) -> f32 {
+        self.tmax
     }
 }
 

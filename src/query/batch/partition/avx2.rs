@@ -34,7 +34,12 @@ const fn compress_table() -> [[u32; 8]; 256] {
 /// Safe entry point. Must only be called when AVX2 is available (checked by the caller).
 pub(crate) fn partition(lanes: &mut Lanes, bounds: &Aabb, start: usize, end: usize) -> usize {
     assert!(start <= end && end <= lanes.len());
-    assert!(lanes.spare.iter().all(|s| s.len() >= end - start + SPARE_PADDING));
+    assert!(
+        lanes
+            .spare
+            .iter()
+            .all(|s| s.len() >= end - start + SPARE_PADDING)
+    );
     assert!(std::arch::is_x86_feature_detected!("avx2"));
     assert!(lanes.spare.iter().all(|s| s.len() >= end - start));
     // SAFETY: AVX2 is available (asserted above), and the range and spare sizes the function

@@ -79,7 +79,11 @@ unsafe fn partition_avx512(lanes: &mut Lanes, bounds: &Aabb, start: usize, end: 
     let mut j = 0;
     while j < cursors.missed {
         let left = cursors.missed - j;
-        let valid: __mmask16 = if left >= 16 { 0xFFFF } else { (1u16 << left) - 1 };
+        let valid: __mmask16 = if left >= 16 {
+            0xFFFF
+        } else {
+            (1u16 << left) - 1
+        };
         for k in 0..COLUMNS {
             // SAFETY: spare entries 0..missed were written above; `front + missed == end`.
             unsafe {

@@ -119,7 +119,11 @@ mod tests {
             if i % 7 == 0 {
                 o.y = 0.5;
             }
-            let tmax = if i % 11 == 0 { f32::INFINITY } else { rnd().abs() * 3.0 };
+            let tmax = if i % 11 == 0 {
+                f32::INFINITY
+            } else {
+                rnd().abs() * 3.0
+            };
             let ray = PreparedRay::new(&Ray::with_range(o, d, 0.0, tmax)).unwrap();
             lanes.set(i as usize, &ray, i);
             if i % 13 == 0 {
