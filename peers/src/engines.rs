@@ -11,7 +11,9 @@ use std::time::{Duration, Instant};
 
 use raybatch::glam::Vec3A;
 use raybatch::tree::aabb_tree::NodeFormat;
-use raybatch::{AabbTree, BuildOptions, Bvh, Mesh, Ray, RayQueries};
+use raybatch::{
+    AabbTree, BatchOptions, BatchQueries, BuildOptions, Bvh, Hit, Mesh, Ray, RayQueries,
+};
 
 use crate::embree_ffi as rtc;
 
@@ -169,6 +171,74 @@ pub fn raybatch<N: NodeFormat>(
             "raybatch QuantizedAabbTree"
         },
         structure,
+        build,
+        query,
+        hits,
+        any_hit,
+    })
+}
+
+/// The batched engine on the same tree: the whole ray array in one `cast_rays_with` call on one
+/// thread (`parallel = false`, other options default). With `any_hit`, also
+/// `occluded_batch_with`.
+pub fn raybatch_batched<N: NodeFormat>(
+    mesh: &Arc<Mesh>,
+    rays: &[Ray],
+    runs: usize,
+    any_hit: bool,
+) -> Result<Run, String> {
+    let options = BuildOptions::default().with_parallel(false);
+    let (build, tree) = best_of(runs, || AabbTree::<N>::build(Arc::clone(mesh), &options));
+    let tree = tree.map_err(|e| format!("raybatch build: {e}"))?;
+    let batch = BatchOptions::default().with_parallel(false);
+    let mut out: Vec<Option<Hit>> = vec![None; rays.len()];
+    let (query, ()) = best_of(runs, || {
+        tree.cast_rays_with(rays, &mut out, &batch)
+            .expect("output sized to the rays")
+    });
+    let hits = out
+        .iter()
+        .map(|h| {
+            h.map(|h| PeerHit {
+                t: h.t,
+                triangle: h.triangle,
+            })
+        })
+        .collect();
+    progress(
+        &format!("raybatch {} batched", tree.name()),
+        build,
+        query,
+        rays.len(),
+    );
+    let any_hit = any_hit.then(|| {
+        let mut occluded = vec![false; rays.len()];
+        let (query, ()) = best_of(runs, || {
+            tree.occluded_batch_with(rays, &mut occluded, &batch)
+                .expect("output sized to the rays")
+        });
+        eprintln!(
+            "    any-hit occluded_batch: {:.1} ms ({:.2} Mrays/s)",
+            query.as_secs_f64() * 1e3,
+            rays.len() as f64 / query.as_secs_f64() / 1e6
+        );
+        AnyHit {
+            call: "occluded_batch",
+            query,
+            occluded,
+        }
+    });
+    Ok(Run {
+        engine: if tree.name() == "aabb" {
+            "raybatch AabbTree batched"
+        } else {
+            "raybatch QuantizedAabbTree batched"
+        },
+        structure: format!(
+            "same tree, whole array per call, one thread, {:?} batch ordering, {} partition",
+            batch.ordering,
+            batch.partition.name()
+        ),
         build,
         query,
         hits,

@@ -161,6 +161,12 @@ fn run_all(
     out.push(engines::raybatch::<QuantizedNodes>(
         mesh, rays, runs, any_hit,
     )?);
+    out.push(engines::raybatch_batched::<FullNodes>(
+        mesh, rays, runs, any_hit,
+    )?);
+    out.push(engines::raybatch_batched::<QuantizedNodes>(
+        mesh, rays, runs, any_hit,
+    )?);
     out.extend(engines::embree(device, mesh, rays, runs, any_hit)?);
     out.push(engines::obvhs_cwbvh(mesh, rays, runs, any_hit));
     out.push(engines::obvhs_bvh2(mesh, rays, runs, any_hit));
