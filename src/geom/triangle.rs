@@ -133,8 +133,11 @@ impl<const KZ: usize> TriangleTest for WatertightAxis<KZ> {
         if det == 0.0 {
             return None;
         }
-        let t_scaled = u * (sz * a[kz]) + v * (sz * b[kz]) + w * (sz * c[kz]);
-        let t = t_scaled / det;
+        // The paper scales the z coordinates by `sz = 1 / dir[kz]` before combining them; for a
+        // short direction `sz` is huge and that product overflows although `t` itself is
+        // finite, so the scale is applied last, to the distance along z.
+        let z_along = (u * a[kz] + v * b[kz] + w * c[kz]) / det;
+        let t = z_along * sz;
         if !in_range(t, ray.tmin, tmax) {
             return None;
         }
@@ -222,7 +225,8 @@ fn agree_with_bounds(
         return None;
     }
     Some(TriangleHit {
-        t: hit.t.max(entry),
+        // `+ 0.0` turns a -0 into +0, so that sorting by `t` agrees with the tie rule.
+        t: hit.t.max(entry) + 0.0,
         ..hit
     })
 }

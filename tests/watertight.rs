@@ -1,0 +1,140 @@
+//! Watertightness: no ray from inside a closed mesh may escape under the watertight kernel,
+//! whatever tree answers it, even aimed exactly at shared vertices and edges.
+
+mod common;
+
+use common::{TreeKind, assert_closed_and_outward, edges, icosphere, trees_with};
+use glam::Vec3;
+use rand::rngs::StdRng;
+use rand::{RngExt, SeedableRng};
+use raybatch::query::brute_force;
+use raybatch::{ChildOrdering, Kernel, Mesh, Ray};
+
+const RAYS: usize = 100_000;
+
+/// A point uniformly distributed in the ball of radius `r`.
+fn in_ball(rng: &mut StdRng, r: f32) -> Vec3 {
+    loop {
+        let p = Vec3::new(
+            rng.random_range(-1.0f32..1.0),
+            rng.random_range(-1.0f32..1.0),
+            rng.random_range(-1.0f32..1.0),
+        );
+        if p.length_squared() <= 1.0 {
+            return p * r;
+        }
+    }
+}
+
+/// What a ray is aimed at.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Aim {
+    Vertex,
+    EdgeMidpoint,
+    Random,
+}
+
+/// The rays: every vertex and edge midpoint seen from the centre, then interior origins
+/// (random, or on a grid of eighths) aimed at random vertices (30%), random edge midpoints
+/// (30%) or in random directions.
+fn rays(mesh: &Mesh, rng: &mut StdRng) -> Vec<(Ray, Aim)> {
+    let verts = mesh.vertices();
+    let midpoints: Vec<Vec3> = edges(mesh)
+        .iter()
+        .map(|&(a, b)| (verts[a as usize] + verts[b as usize]) * 0.5)
+        .collect();
+    let mut rays: Vec<(Ray, Aim)> = verts
+        .iter()
+        .map(|&v| (Ray::new(Vec3::ZERO, v), Aim::Vertex))
+        .chain(
+            midpoints
+                .iter()
+                .map(|&m| (Ray::new(Vec3::ZERO, m), Aim::EdgeMidpoint)),
+        )
+        .collect();
+    while rays.len() < RAYS {
+        let origin = match rng.random_range(0..4) {
+            0 => Vec3::new(
+                rng.random_range(-4i32..=4) as f32 * 0.125,
+                rng.random_range(-4i32..=4) as f32 * 0.125,
+                rng.random_range(-4i32..=4) as f32 * 0.125,
+            ),
+            _ => in_ball(rng, 0.9),
+        };
+        let (target, aim) = match rng.random_range(0..10) {
+            0..3 => (verts[rng.random_range(0..verts.len())], Aim::Vertex),
+            3..6 => (
+                midpoints[rng.random_range(0..midpoints.len())],
+                Aim::EdgeMidpoint,
+            ),
+            _ => (origin + in_ball(rng, 1.0), Aim::Random),
+        };
+        let ray = Ray::new(origin, target - origin);
+        if ray.is_valid() {
+            rays.push((ray, aim));
+        }
+    }
+    rays
+}
+
+#[test]
+fn no_leaks_from_inside_closed_icosphere() {
+    let mesh = icosphere(4);
+    assert_closed_and_outward(&mesh, Vec3::ZERO);
+    let trees = trees_with(&mesh, &TreeKind::ALL, &[1, 4], &[ChildOrdering::Pns]);
+    let mut rng = StdRng::seed_from_u64(0x5eed);
+    let rays = rays(&mesh, &mut rng);
+    let count = |aim: Aim| rays.iter().filter(|(_, a)| *a == aim).count();
+    let aimed = count(Aim::Vertex) + count(Aim::EdgeMidpoint);
+    assert!(aimed > RAYS / 2, "{aimed}");
+
+    // Möller-Trumbore leaks per aim (same order as the enum).
+    let mut mt_leaks = [0usize; 3];
+    for (i, (ray, aim)) in rays.iter().enumerate() {
+        for t in &trees {
+            let h = t
+                .tree
+                .cast(ray, Kernel::Watertight)
+                .unwrap_or_else(|| panic!("{}: leak, ray {i} ({aim:?}): {ray:?}", t.name));
+            // The hit is on the sphere (radius 1, the facets are at most ~0.2% inside).
+            let r = ray.at(h.t).length();
+            assert!(
+                (0.99..=1.0001).contains(&r),
+                "{}: hit at radius {r}, {ray:?}",
+                t.name
+            );
+            assert!(
+                t.tree.occluded(ray, Kernel::Watertight),
+                "{}: {ray:?}",
+                t.name
+            );
+        }
+        if trees[0].tree.cast(ray, Kernel::MollerTrumbore).is_none() {
+            mt_leaks[*aim as usize] += 1;
+        }
+    }
+    // The kernel itself, without any tree, on a tenth of the rays.
+    for (ray, _) in rays.iter().step_by(10) {
+        assert!(
+            brute_force::cast_ray(&mesh, ray, Kernel::Watertight).is_some(),
+            "brute force leak: {ray:?}"
+        );
+    }
+    let total: usize = mt_leaks.iter().sum();
+    eprintln!(
+        "watertight: 0 leaks in {} rays x {} trees (icosphere, {} triangles). \
+         Moller-Trumbore ({}): {total} leaks ({:.3}%): {} of {} rays aimed at vertices, \
+         {} of {} aimed at edge midpoints, {} of {} random",
+        rays.len(),
+        trees.len(),
+        mesh.triangle_count(),
+        trees[0].name,
+        100.0 * total as f64 / rays.len() as f64,
+        mt_leaks[0],
+        count(Aim::Vertex),
+        mt_leaks[1],
+        count(Aim::EdgeMidpoint),
+        mt_leaks[2],
+        count(Aim::Random),
+    );
+}
