@@ -1,0 +1,35 @@
+//! The README's example, compiled: `cargo run --release --example quickstart`.
+
+use raybatch::glam::Vec3;
+use raybatch::{AabbTree, BatchQueries, BuildOptions, Hit, Mesh, Ray, RayQueries};
+
+fn main() -> Result<(), Box<dyn std::error::Error>> {
+    let mesh = Mesh::load_obj("data/stanford-bunny.obj")?;
+    let tree: AabbTree = AabbTree::build(mesh, &BuildOptions::default())?;
+
+    // One ray at a time.
+    let ray = Ray::new(Vec3::new(0.0, 0.1, 1.0), Vec3::new(0.0, 0.0, -1.0));
+    if let Some(Hit { t, triangle, u, v }) = tree.cast_ray(&ray) {
+        println!("hit triangle {triangle} at t = {t} (u = {u}, v = {v})");
+    }
+    let blocked = tree.occluded(&Ray::segment(Vec3::ZERO, Vec3::new(0.0, 0.2, 0.0)));
+    println!("segment blocked: {blocked}");
+
+    // A whole batch: one pass down the tree, split over rayon's threads.
+    let rays: Vec<Ray> = vec![ray; 100_000];
+    let mut hits = vec![None; rays.len()];
+    tree.cast_rays(&rays, &mut hits)?;
+    let mut occluded = vec![false; rays.len()];
+    tree.occluded_batch(&rays, &mut occluded)?;
+    let count = std::sync::atomic::AtomicUsize::new(0);
+    tree.for_each_hit_batch(&rays, |_ray_index, _hit| {
+        count.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+    });
+    println!(
+        "{} of {} rays hit; {} hits in all",
+        hits.iter().flatten().count(),
+        rays.len(),
+        count.into_inner()
+    );
+    Ok(())
+}
