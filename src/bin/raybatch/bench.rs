@@ -24,7 +24,7 @@ use crate::compare::{self, BatchedRow, Subject};
 use crate::error::CliError;
 use crate::inputs::load_mesh;
 use crate::measure::time_ms;
-use crate::runner::Engine;
+use crate::runner::{Engine, QueryKind};
 use crate::table::{Align, Table, ratio, thousands};
 use crate::workload::{COLUMNS, PASSES, RaySets, speed};
 
@@ -186,6 +186,14 @@ struct Row {
     mrays: Vec<f64>,
 }
 
+impl Row {
+    /// The speed of the column asking `kind` of `set`.
+    fn speed_of(&self, kind: QueryKind, set: RaySet) -> f64 {
+        let column = COLUMNS.iter().position(|c| c.kind == kind && c.set == set);
+        self.mrays[column.expect("the main table has this column")]
+    }
+}
+
 /// Everything printed for one scene, gathered tree by tree.
 #[derive(Default)]
 struct SceneReport {
@@ -237,8 +245,9 @@ fn bench_format<N: NodeFormat>(
                 label: format!("{}/{}", N::NAME, ordering.name()),
                 tree: &tree,
             };
-            let batched = compare::batched_rows(&subject, &row.mrays, &rays.all);
-            report.batched.extend(batched);
+            report
+                .batched
+                .extend(compare::batched_rows(&subject, &row.mrays, &rays.all));
             if default {
                 default_tree_extras(&subject, scene, plan, &rays.all, &row, report);
             }
@@ -249,8 +258,8 @@ fn bench_format<N: NodeFormat>(
 
 /// The comparisons run on the default tree only: kernels, and on detailed scenes the batch size
 /// sweep and the partition kernels.
-fn default_tree_extras<N: NodeFormat>(
-    subject: &Subject<AabbTree<N>>,
+fn default_tree_extras<T: Bvh>(
+    subject: &Subject<T>,
     scene: &BenchScene,
     plan: &Plan,
     rays: &RaySets,
@@ -260,13 +269,10 @@ fn default_tree_extras<N: NodeFormat>(
     let incoherent = rays.get(RaySet::Incoherent);
     report.kernels = compare::compare_kernels(subject, incoherent);
     if scene.detailed {
-        // COLUMNS[0] is closest incoherent.
-        let per_ray = row.mrays[0];
+        let per_ray = row.speed_of(QueryKind::Closest, RaySet::Incoherent);
         let sweep = compare::batch_size_sweep(subject, incoherent, per_ray, plan.batch_sizes);
-        report.details.push(sweep);
-        report
-            .details
-            .push(compare::compare_partitions(subject, incoherent));
+        let partitions = compare::compare_partitions(subject, incoherent);
+        report.details.extend([sweep, partitions]);
     }
 }
 

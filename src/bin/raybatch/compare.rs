@@ -2,8 +2,9 @@
 //! (a table per scene), the batch size sweep and the partition kernels (on the bunny only), and
 //! the triangle kernels (one line per scene).
 //!
-//! Every number is Mrays/s of a [`crate::runner::Query`] timed by [`crate::workload`]; the
-//! per-ray speeds are taken from the main table rather than measured again.
+//! Every number is Mrays/s of a [`crate::runner::Query`] timed by [`crate::workload`]. The
+//! per-ray speeds of the per-ray vs batched table and of the sweep are taken from the main table
+//! (the same queries); the one-line comparisons time both sides back to back.
 
 use raybatch::query::batch::PartitionKernel;
 use raybatch::{BatchOrdering, Bvh, Kernel, Ray};
@@ -161,13 +162,9 @@ pub fn batch_size_sweep<T: Bvh>(
     for size in sweep_sizes(sizes, rays.len()) {
         let batched = time_in_batches(subject.tree, query, rays, size).mrays_per_s();
         let all = if size == rays.len() { " (all)" } else { "" };
+        let ratio = ratio(batched / per_ray);
         let size = format!("{}{all}", thousands(size));
-        table.push(vec![
-            size,
-            mrays(per_ray),
-            mrays(batched),
-            ratio(batched / per_ray),
-        ]);
+        table.push(vec![size, mrays(per_ray), mrays(batched), ratio]);
     }
     format!(
         "Batch size, closest incoherent on {}, Mrays/s, one thread, by-octant: the {} rays go \
@@ -182,14 +179,16 @@ pub fn batch_size_sweep<T: Bvh>(
 /// One line comparing the partition kernels for batched closest hits on one thread.
 pub fn compare_partitions<T: Bvh>(subject: &Subject<T>, rays: &[Ray]) -> String {
     subject.progress("comparing partition kernels");
-    let (tree, label) = (subject.tree, &subject.label);
-    let ordering = BatchOrdering::ByOctant;
     let (detected, portable) = (PartitionKernel::detect(), PartitionKernel::Portable);
-    let fast = speed(tree, batched_closest(ordering, detected), rays);
-    let slow = speed(tree, batched_closest(ordering, portable), rays);
+    let speed_of = |partition| {
+        let query = batched_closest(BatchOrdering::ByOctant, partition);
+        speed(subject.tree, query, rays)
+    };
+    let (fast, slow) = (speed_of(detected), speed_of(portable));
     format!(
-        "Partition kernels, batched closest incoherent on {label}, one thread: {} (detected) \
+        "Partition kernels, batched closest incoherent on {}, one thread: {} (detected) \
          {fast:.2} Mrays/s, {} {slow:.2} Mrays/s ({} / {} = {}).",
+        subject.label,
         detected.name(),
         portable.name(),
         detected.name(),
@@ -201,22 +200,20 @@ pub fn compare_partitions<T: Bvh>(subject: &Subject<T>, rays: &[Ray]) -> String 
 /// One line comparing the triangle kernels for per-ray closest hits on one thread.
 pub fn compare_kernels<T: Bvh>(subject: &Subject<T>, rays: &[Ray]) -> String {
     subject.progress("comparing kernels");
-    let (tree, label) = (subject.tree, &subject.label);
+    let (watertight, other) = (Kernel::Watertight, Kernel::MollerTrumbore);
     let speed_of = |kernel| {
         let query = Query::new(QueryKind::Closest, kernel, Engine::PerRay).with_threads(1);
-        speed(tree, query, rays)
+        speed(subject.tree, query, rays)
     };
-    let (watertight, moller) = (
-        speed_of(Kernel::Watertight),
-        speed_of(Kernel::MollerTrumbore),
-    );
+    let (fast, slow) = (speed_of(watertight), speed_of(other));
     format!(
-        "Kernels, closest incoherent on {label}: {} {watertight:.2} Mrays/s, {} {moller:.2} \
-         Mrays/s ({} / {} = {}).",
-        Kernel::Watertight.name(),
-        Kernel::MollerTrumbore.name(),
-        Kernel::MollerTrumbore.name(),
-        Kernel::Watertight.name(),
-        ratio(moller / watertight),
+        "Kernels, closest incoherent on {}: {} {fast:.2} Mrays/s, {} {slow:.2} Mrays/s \
+         ({} / {} = {}).",
+        subject.label,
+        watertight.name(),
+        other.name(),
+        other.name(),
+        watertight.name(),
+        ratio(slow / fast),
     )
 }

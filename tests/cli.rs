@@ -1,0 +1,431 @@
+//! End-to-end tests of the `raybatch` binary: `query` output against the brute-force reference,
+//! the batched engine and thread pools against the per-ray engine (byte for byte), its JSON
+//! statistics line, its handling of bad input (non-zero exit, no output file), and a tiny
+//! `bench` run.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+use std::sync::atomic::{AtomicUsize, Ordering};
+
+use raybatch::glam::Vec3;
+use raybatch::query::brute_force;
+use raybatch::{Kernel, Mesh, Ray};
+
+/// A quad at z = 1 written as one polygon (triangles 0 and 1), a triangle at z = 2 over part of
+/// it (triangle 2), and a degenerate triangle (3), which is never hit.
+const OBJ: &str = "\
+# test mesh
+v 0 0 1
+v 1 0 1
+v 1 1 1
+v 0 1 1
+v 0.2 0.2 2
+v 0.9 0.3 2
+v 0.4 0.8 2
+f 1 2 3 4
+f 5/1 6/2 7/3
+f 1 1 2
+";
+
+/// A fresh, empty directory under the system temp dir, removed when dropped.
+struct TempDir(PathBuf);
+
+impl TempDir {
+    fn new(test: &str) -> Self {
+        static COUNTER: AtomicUsize = AtomicUsize::new(0);
+        let n = COUNTER.fetch_add(1, Ordering::Relaxed);
+        let name = format!("raybatch-cli-{}-{test}-{n}", std::process::id());
+        let dir = std::env::temp_dir().join(name);
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).expect("create temp dir");
+        Self(dir)
+    }
+
+    fn path(&self, name: &str) -> PathBuf {
+        self.0.join(name)
+    }
+
+    /// The names of the files in the directory, sorted.
+    fn files(&self) -> Vec<String> {
+        let mut names: Vec<String> = std::fs::read_dir(&self.0)
+            .expect("list temp dir")
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .collect();
+        names.sort();
+        names
+    }
+}
+
+impl Drop for TempDir {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_dir_all(&self.0);
+    }
+}
+
+/// Upward rays on a grid over and around the mesh (some through shared edges and vertices),
+/// slanted and downward rays, a segment that stops between the layers, and invalid rays.
+fn test_rays() -> Vec<Ray> {
+    let mut rays = Vec::new();
+    for i in 0..=12 {
+        for j in 0..=12 {
+            let (x, y) = (-0.1 + 0.1 * i as f32, -0.1 + 0.1 * j as f32);
+            rays.push(Ray::new(Vec3::new(x, y, 0.0), Vec3::Z));
+            rays.push(Ray::new(Vec3::new(x, y, 3.0), Vec3::new(0.1, -0.2, -1.0)));
+        }
+    }
+    rays.push(Ray::with_range(Vec3::new(0.5, 0.5, 0.0), Vec3::Z, 0.0, 1.5));
+    rays.push(Ray::with_range(Vec3::new(0.5, 0.5, 0.0), Vec3::Z, 1.5, 9.0));
+    rays.push(Ray::new(Vec3::new(f32::NAN, 0.5, 0.0), Vec3::Z));
+    rays.push(Ray::new(Vec3::new(0.5, 0.5, 0.0), Vec3::ZERO));
+    rays.push(Ray::with_range(Vec3::new(0.5, 0.5, 0.0), Vec3::Z, 2.0, 1.0));
+    rays
+}
+
+fn encode_rays(rays: &[Ray]) -> Vec<u8> {
+    rays.iter()
+        .flat_map(|r| {
+            [
+                r.origin.x, r.origin.y, r.origin.z, r.dir.x, r.dir.y, r.dir.z, r.tmin, r.tmax,
+            ]
+        })
+        .flat_map(f32::to_le_bytes)
+        .collect()
+}
+
+/// Writes the test mesh and rays into `dir`; returns their paths.
+fn write_inputs(dir: &TempDir, rays: &[Ray]) -> (PathBuf, PathBuf) {
+    let (mesh, ray_file) = (dir.path("mesh.obj"), dir.path("rays.bin"));
+    std::fs::write(&mesh, OBJ).unwrap();
+    std::fs::write(&ray_file, encode_rays(rays)).unwrap();
+    (mesh, ray_file)
+}
+
+fn raybatch(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_raybatch"))
+        .args(args)
+        .output()
+        .expect("run raybatch")
+}
+
+fn query(mesh: &Path, rays: &Path, out: &Path, extra: &[&str]) -> Output {
+    let mut args = vec![
+        "query",
+        "--mesh",
+        mesh.to_str().unwrap(),
+        "--rays",
+        rays.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ];
+    args.extend_from_slice(extra);
+    raybatch(&args)
+}
+
+fn stderr(output: &Output) -> String {
+    String::from_utf8_lossy(&output.stderr).into_owned()
+}
+
+/// The integer value of `"key":N` in a one-line JSON object.
+fn json_int(line: &str, key: &str) -> Option<u64> {
+    let start = line.find(&format!("\"{key}\":"))? + key.len() + 3;
+    let digits: String = line[start..]
+        .chars()
+        .take_while(char::is_ascii_digit)
+        .collect();
+    digits.parse().ok()
+}
+
+/// Checks the stderr of a successful query: exactly one JSON line with the expected counts.
+fn check_json(output: &Output, rays: usize, hits: usize) {
+    let err = stderr(output);
+    let lines: Vec<&str> = err.lines().collect();
+    assert_eq!(lines.len(), 1, "stderr: {err}");
+    let line = lines[0];
+    assert!(line.starts_with('{') && line.ends_with('}'), "{line}");
+    for key in [
+        "rays",
+        "build_ms",
+        "query_ms",
+        "mrays_per_s",
+        "tree",
+        "kind",
+        "hits",
+    ] {
+        assert!(line.contains(&format!("\"{key}\":")), "no {key} in {line}");
+    }
+    assert_eq!(json_int(line, "rays"), Some(rays as u64), "{line}");
+    assert_eq!(json_int(line, "hits"), Some(hits as u64), "{line}");
+}
+
+/// The string value of `"key":"value"` in a one-line JSON object (no escapes).
+fn json_str<'a>(line: &'a str, key: &str) -> Option<&'a str> {
+    let start = line.find(&format!("\"{key}\":\""))? + key.len() + 4;
+    let len = line[start..].find('"')?;
+    Some(&line[start..start + len])
+}
+
+fn f32_at(bytes: &[u8], at: usize) -> f32 {
+    f32::from_le_bytes(bytes[at..at + 4].try_into().unwrap())
+}
+
+#[test]
+fn closest_hits_match_brute_force() {
+    let dir = TempDir::new("closest");
+    let rays = test_rays();
+    let (mesh_path, rays_path) = write_inputs(&dir, &rays);
+    let mesh = Mesh::from_obj_str(OBJ).unwrap();
+    for tree in ["aabb", "quantized"] {
+        for kernel in Kernel::ALL {
+            let out = dir.path(&format!("hits-{tree}-{}.bin", kernel.name()));
+            let extra = [
+                "--kind",
+                "closest",
+                "--tree",
+                tree,
+                "--kernel",
+                kernel.name(),
+            ];
+            let output = query(&mesh_path, &rays_path, &out, &extra);
+            assert!(output.status.success(), "{}", stderr(&output));
+            let bytes = std::fs::read(&out).unwrap();
+            assert_eq!(bytes.len(), 16 * rays.len());
+            let mut hits = 0;
+            for (i, (ray, record)) in rays.iter().zip(bytes.chunks_exact(16)).enumerate() {
+                let triangle = u32::from_le_bytes(record[4..8].try_into().unwrap());
+                let got = (
+                    f32_at(record, 0),
+                    triangle,
+                    f32_at(record, 8),
+                    f32_at(record, 12),
+                );
+                let expected = match brute_force::cast_ray(&mesh, ray, kernel) {
+                    Some(h) => (h.t, h.triangle, h.u, h.v),
+                    None => (f32::INFINITY, u32::MAX, 0.0, 0.0),
+                };
+                hits += usize::from(expected.1 != u32::MAX);
+                let bits = |(t, id, u, v): (f32, u32, f32, f32)| {
+                    (t.to_bits(), id, u.to_bits(), v.to_bits())
+                };
+                assert_eq!(
+                    bits(got),
+                    bits(expected),
+                    "{tree} {kernel:?} ray {i}: {ray:?}"
+                );
+            }
+            assert!(
+                hits > 0 && hits < rays.len(),
+                "the rays should both hit and miss"
+            );
+            check_json(&output, rays.len(), hits);
+        }
+    }
+}
+
+#[test]
+fn any_hits_match_brute_force() {
+    let dir = TempDir::new("any");
+    let rays = test_rays();
+    let (mesh_path, rays_path) = write_inputs(&dir, &rays);
+    let mesh = Mesh::from_obj_str(OBJ).unwrap();
+    let out = dir.path("hits.bin");
+    let output = query(
+        &mesh_path,
+        &rays_path,
+        &out,
+        &["--kind", "any", "--batched"],
+    );
+    assert!(output.status.success(), "{}", stderr(&output));
+    let expected: Vec<u8> = rays
+        .iter()
+        .map(|r| u8::from(brute_force::occluded(&mesh, r, Kernel::Watertight)))
+        .collect();
+    assert_eq!(std::fs::read(&out).unwrap(), expected);
+    let hits = expected.iter().filter(|&&b| b == 1).count();
+    check_json(&output, rays.len(), hits);
+}
+
+/// Many rays (upward and slanted, on a fine grid over the mesh, plus [`test_rays`]), enough for
+/// the batched engine to cut them into several chunks on two threads.
+fn many_rays() -> Vec<Ray> {
+    let mut rays = test_rays();
+    let n = 120;
+    for i in 0..n {
+        for j in 0..n {
+            let (x, y) = (
+                -0.1 + 1.2 * i as f32 / n as f32,
+                -0.1 + 1.2 * j as f32 / n as f32,
+            );
+            rays.push(Ray::new(Vec3::new(x, y, 0.0), Vec3::new(0.05, 0.02, 1.0)));
+            rays.push(Ray::new(Vec3::new(x, y, 3.0), Vec3::new(-0.1, 0.2, -1.0)));
+        }
+    }
+    rays
+}
+
+/// Runs a successful query with `extra` flags; returns the output bytes and the JSON line.
+fn query_ok(dir: &TempDir, mesh: &Path, rays: &Path, extra: &[&str]) -> (Vec<u8>, String) {
+    let out = dir.path("hits.bin");
+    let output = query(mesh, rays, &out, extra);
+    assert!(output.status.success(), "{extra:?}: {}", stderr(&output));
+    let bytes = std::fs::read(&out).unwrap();
+    std::fs::remove_file(&out).unwrap();
+    (bytes, stderr(&output).trim_end().to_string())
+}
+
+#[test]
+fn batched_and_threaded_output_equals_per_ray_output() {
+    let dir = TempDir::new("batched");
+    let rays = many_rays();
+    let (mesh, rays_path) = write_inputs(&dir, &rays);
+    for (kind, tree) in [
+        ("closest", "aabb"),
+        ("any", "aabb"),
+        ("closest", "quantized"),
+    ] {
+        let base = ["--kind", kind, "--tree", tree];
+        let (expected, line) = query_ok(&dir, &mesh, &rays_path, &base);
+        assert_eq!(json_str(&line, "engine"), Some("per-ray"), "{line}");
+        assert_eq!(json_int(&line, "threads"), Some(1), "{line}");
+        let hits = json_int(&line, "hits").unwrap();
+        assert!(hits > 0 && hits < rays.len() as u64, "{line}");
+        for (batched, threads) in [(true, "1"), (true, "2"), (false, "2")] {
+            let mut extra = [base.as_slice(), &["--threads", threads]].concat();
+            let engine = if batched { "batched" } else { "per-ray" };
+            if batched {
+                extra.push("--batched");
+            }
+            let (bytes, line) = query_ok(&dir, &mesh, &rays_path, &extra);
+            assert!(bytes == expected, "{extra:?}: output differs");
+            assert_eq!(json_str(&line, "engine"), Some(engine), "{line}");
+            assert_eq!(json_int(&line, "threads"), threads.parse().ok(), "{line}");
+            assert_eq!(json_int(&line, "hits"), Some(hits), "{line}");
+        }
+        let extra = [base.as_slice(), &["--batched"]].concat();
+        let (bytes, line) = query_ok(&dir, &mesh, &rays_path, &extra);
+        assert!(bytes == expected, "{extra:?}: output differs");
+        assert_eq!(json_str(&line, "engine"), Some("batched"), "{line}");
+    }
+}
+
+#[test]
+fn empty_ray_file_gives_empty_output() {
+    let dir = TempDir::new("empty");
+    let (mesh_path, rays_path) = write_inputs(&dir, &[]);
+    let out = dir.path("hits.bin");
+    let output = query(&mesh_path, &rays_path, &out, &["--kind", "closest"]);
+    assert!(output.status.success(), "{}", stderr(&output));
+    assert_eq!(std::fs::read(&out).unwrap(), Vec::<u8>::new());
+    check_json(&output, 0, 0);
+}
+
+/// Runs a query expected to fail with `code`; checks the message and that nothing was written.
+fn assert_fails(dir: &TempDir, mesh: &Path, rays: &Path, extra: &[&str], code: i32, says: &str) {
+    let before = dir.files();
+    let out = dir.path("hits.bin");
+    let output = query(mesh, rays, &out, extra);
+    let err = stderr(&output);
+    assert_eq!(output.status.code(), Some(code), "{err}");
+    assert!(err.contains(says), "expected '{says}' in: {err}");
+    assert!(!err.contains('{'), "no statistics on failure: {err}");
+    assert!(!out.exists(), "HITS.bin must not be written");
+    assert_eq!(dir.files(), before, "no file may be left behind");
+}
+
+#[test]
+fn bad_input_fails_without_writing_output() {
+    let dir = TempDir::new("bad");
+    let (mesh, rays) = write_inputs(&dir, &test_rays());
+    let closest = ["--kind", "closest"];
+
+    let truncated = dir.path("truncated.bin");
+    std::fs::write(&truncated, [0u8; 33]).unwrap();
+    let msg = "is not a multiple of 32";
+    assert_fails(&dir, &mesh, &truncated, &closest, 1, msg);
+
+    let missing = dir.path("missing.obj");
+    assert_fails(&dir, &missing, &rays, &closest, 1, "missing.obj");
+
+    let malformed = dir.path("malformed.obj");
+    std::fs::write(&malformed, "v 0 0 0\nv 1 0 0\nf 1 2 9\n").unwrap();
+    assert_fails(&dir, &malformed, &rays, &closest, 1, "line 3");
+
+    let missing_rays = dir.path("missing.bin");
+    assert_fails(&dir, &mesh, &missing_rays, &closest, 1, "missing.bin");
+}
+
+#[test]
+fn bad_flags_are_usage_errors() {
+    let dir = TempDir::new("flags");
+    let (mesh, rays) = write_inputs(&dir, &test_rays());
+    assert_fails(&dir, &mesh, &rays, &["--kind", "nearest"], 2, "--kind");
+    assert_fails(&dir, &mesh, &rays, &[], 2, "missing --kind");
+    let unknown = ["--kind", "any", "--fast"];
+    assert_fails(&dir, &mesh, &rays, &unknown, 2, "unknown flag '--fast'");
+    assert_fails(
+        &dir,
+        &mesh,
+        &rays,
+        &["--kind", "any", "--leaf", "0"],
+        2,
+        "--leaf",
+    );
+    let bad_threads = ["--kind", "any", "--threads", "x"];
+    assert_fails(&dir, &mesh, &rays, &bad_threads, 2, "--threads");
+
+    let output = raybatch(&["frobnicate"]);
+    assert_eq!(output.status.code(), Some(2));
+    let help = raybatch(&["--help"]);
+    assert!(help.status.success());
+    assert!(String::from_utf8_lossy(&help.stdout).contains("raybatch query --mesh MESH.obj"));
+}
+
+/// The Markdown tables of `text`: runs of lines starting with `| `.
+fn tables(text: &str) -> Vec<Vec<&str>> {
+    let mut tables: Vec<Vec<&str>> = Vec::new();
+    let mut previous_was_row = false;
+    for line in text.lines() {
+        let row = line.starts_with("| ");
+        match (row, previous_was_row) {
+            (true, true) => tables.last_mut().unwrap().push(line),
+            (true, false) => tables.push(vec![line]),
+            _ => {}
+        }
+        previous_was_row = row;
+    }
+    tables
+}
+
+#[test]
+fn quick_bench_prints_the_tables() {
+    let output = raybatch(&["bench", "--quick", "--scenes", "bunny", "--rays", "2000"]);
+    let out = String::from_utf8_lossy(&output.stdout);
+    assert!(output.status.success(), "{}", stderr(&output));
+    assert!(out.contains("### bunny (69,451 triangles)"), "{out}");
+    for line in [
+        "Kernels, closest",
+        "Per-ray vs batched",
+        "Partition kernels",
+    ] {
+        assert!(out.contains(line), "no '{line}' in {out}");
+    }
+    let tables = tables(&out);
+    assert_eq!(tables.len(), 3, "{out}");
+    // Header, rule, and one row per tree (--quick: pns only).
+    let main = &tables[0];
+    assert_eq!(main.len(), 4, "{out}");
+    assert!(main[0].starts_with("| tree "), "{out}");
+    assert!(main[2].starts_with("| aabb") && main[3].starts_with("| quantized"));
+    // Per-ray vs batched: 6 queries on each of the 2 pns trees.
+    let batched = &tables[1];
+    assert_eq!(batched.len(), 2 + 12, "{out}");
+    assert!(batched[0].contains("by-octant") && batched[0].contains("2 threads"));
+    assert!(batched[2].starts_with("| aabb/pns") && batched[13].starts_with("| quantized/pns"));
+    // Batch sizes: 64, then all 2000 (4096 is more than the rays).
+    let sweep = &tables[2];
+    assert_eq!(sweep.len(), 2 + 2, "{out}");
+    assert!(
+        sweep[2].contains(" 64 |") && sweep[3].contains("2,000 (all)"),
+        "{out}"
+    );
+    assert!(stderr(&output).contains("bunny: aabb/pns: building"));
+}
