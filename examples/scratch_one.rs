@@ -42,7 +42,7 @@ fn main() {
     let single: Vec<Option<Hit>> = rays.iter().map(|r| tree.cast_ray(r)).collect();
     let mut hits = vec![None; n];
     for ord in BatchOrdering::ALL {
-        for par in [0usize, 4, 8, 16, 32] {
+        for par in [0usize, 8, 32] {
             let o = BatchOptions::default()
                 .with_ordering(ord)
                 .with_parallel(false)

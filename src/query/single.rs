@@ -146,7 +146,8 @@ impl<B: Bvh + ?Sized, V: Visitor> KernelTask for Traversal<'_, B, V> {
 /// Runs `visitor` with `kernel`, monomorphized for the ray's dominant axis.
 ///
 /// On x86-64 CPUs with AVX2 the whole loop is compiled a second time with AVX2 enabled (wider
-/// blends and three-operand instructions make the box test shorter) and picked at run time.
+/// blends and three-operand instructions make the box test shorter) and picked at run time,
+/// for the trees whose [`Bvh::AVX2_TRAVERSAL`] says it pays.
 /// Both versions perform the same IEEE operations in the same order (Rust never fuses a
 /// multiply and an add on its own), so they return identical bits.
 #[inline]
@@ -157,7 +158,7 @@ pub(crate) fn run<B: Bvh + ?Sized, V: Visitor>(
     visitor: &mut V,
 ) {
     #[cfg(target_arch = "x86_64")]
-    if std::arch::is_x86_feature_detected!("avx2") {
+    if B::AVX2_TRAVERSAL && std::arch::is_x86_feature_detected!("avx2") {
         // SAFETY: the CPU supports AVX2, the only requirement of `run_avx2`.
         unsafe { run_avx2(tree, ray, kernel, visitor) };
         return;

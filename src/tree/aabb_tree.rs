@@ -19,6 +19,8 @@ use crate::mesh::Mesh;
 pub trait NodeFormat: Sized + Send + Sync {
     /// Name for tables.
     const NAME: &'static str;
+    /// See [`Bvh::AVX2_TRAVERSAL`].
+    const AVX2_TRAVERSAL: bool = true;
     /// Packs built nodes; fails if the format cannot address them.
     fn pack(built: &BuiltTree) -> Result<Self, BuildError>;
     fn node_count(&self) -> usize;
@@ -45,6 +47,7 @@ impl NodeFormat for FullNodes {
 
 impl NodeFormat for QuantizedNodes {
     const NAME: &'static str = "quantized";
+    const AVX2_TRAVERSAL: bool = false;
     fn pack(built: &BuiltTree) -> Result<Self, BuildError> {
         QuantizedNodes::pack(&built.nodes, built.triangle_order.len())
     }
@@ -113,6 +116,8 @@ impl<N: NodeFormat> AabbTree<N> {
 }
 
 impl<N: NodeFormat> Bvh for AabbTree<N> {
+    const AVX2_TRAVERSAL: bool = N::AVX2_TRAVERSAL;
+
     fn mesh(&self) -> &Mesh {
         &self.mesh
     }

@@ -39,6 +39,10 @@ pub struct NodeView {
 /// The traversal interface shared by all trees. Node 0 is the root; a tree with no nodes
 /// (empty mesh, or only degenerate triangles) is hit by nothing.
 pub trait Bvh: Sync {
+    /// Whether the single-ray loop should run its AVX2-compiled copy where the CPU has AVX2
+    /// (measured per node format: it speeds up full nodes and slows down quantized ones).
+    const AVX2_TRAVERSAL: bool = true;
+
     /// The mesh the tree was built over; triangle ids refer to it.
     fn mesh(&self) -> &Mesh;
 
