@@ -98,21 +98,9 @@ impl FullNodes {
         let bounds = Aabb::new(Vec3::from_array(n.min), Vec3::from_array(n.max));
         if is_leaf(n.word) {
             let (first, count) = unpack_leaf(n.word);
-            NodeView {
-                bounds,
-                first,
-                count,
-                first_child: 0,
-                order: 0,
-            }
+            NodeView::leaf(bounds, first, count)
         } else {
-            NodeView {
-                bounds,
-                first: 0,
-                count: 0,
-                first_child: n.word,
-                order: n.order as u8,
-            }
+            NodeView::internal(bounds, n.word, n.order as u8)
         }
     }
 }

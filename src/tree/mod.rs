@@ -36,6 +36,32 @@ pub struct NodeView {
     pub order: u8,
 }
 
+impl NodeView {
+    /// A leaf owning triangle slots `first..first + count`.
+    #[inline(always)]
+    pub fn leaf(bounds: Aabb, first: u32, count: u32) -> Self {
+        Self {
+            bounds,
+            first,
+            count,
+            first_child: 0,
+            order: 0,
+        }
+    }
+
+    /// An internal node with children `first_child` and `first_child + 1`.
+    #[inline(always)]
+    pub fn internal(bounds: Aabb, first_child: u32, order: u8) -> Self {
+        Self {
+            bounds,
+            first: 0,
+            count: 0,
+            first_child,
+            order,
+        }
+    }
+}
+
 /// The traversal interface shared by all trees. Node 0 is the root; a tree with no nodes
 /// (empty mesh, or only degenerate triangles) is hit by nothing.
 pub trait Bvh: Sync {

@@ -123,21 +123,13 @@ impl QuantizedNodes {
         );
         if is_leaf(n.word) {
             let (first, count) = unpack_leaf(n.word);
-            NodeView {
-                bounds,
-                first,
-                count,
-                first_child: 0,
-                order: 0,
-            }
+            NodeView::leaf(bounds, first, count)
         } else {
-            NodeView {
+            NodeView::internal(
                 bounds,
-                first: 0,
-                count: 0,
-                first_child: 2 * (n.word & PAIR_MASK) + FIRST_PAIR,
-                order: (n.word >> PAIR_BITS) as u8,
-            }
+                2 * (n.word & PAIR_MASK) + FIRST_PAIR,
+                (n.word >> PAIR_BITS) as u8,
+            )
         }
     }
 }

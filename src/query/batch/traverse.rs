@@ -151,8 +151,11 @@ pub(crate) struct ClosestLanes<'a> {
 impl LaneVisitor for ClosestLanes<'_> {
     #[inline(always)]
     fn visit(&mut self, id: u32, hit: Hit, tmax: &mut f32) {
+        // The lane's range end is always the best `t` so far and kernels only report
+        // `t <= tmax`: a strictly smaller `t` wins without reading the best hit (a cache miss
+        // in a batch of a million rays); only a tie needs the best hit's id.
         let best = &mut self.best[id as usize];
-        if hit.is_before(best) {
+        if hit.t < *tmax || hit.is_before(best) {
             *best = hit;
             *tmax = hit.t;
         }
