@@ -174,7 +174,8 @@ pub fn build(mesh: &Mesh, options: &BuildOptions) -> Result<BuiltTree, BuildErro
         return Ok(BuiltTree::default());
     }
     let builder = Builder { options: *options };
-    let temp = builder.build_subtree(&mut prims, 0, 0);
+    let extent = Extent::of(&prims);
+    let temp = builder.build_subtree(&mut prims, extent, 0, 0);
     let triangle_order: Vec<u32> = prims.iter().map(|p| p.id).collect();
     Ok(layout(&temp, &triangle_order, options.ordering))
 }
@@ -195,25 +196,37 @@ enum Split {
 impl Builder {
     /// Builds the subtree over `prims` (slots `offset..` of the final order); preorder vector,
     /// root at index 0.
-    fn build_subtree(&self, prims: &mut [Prim], offset: u32, depth: usize) -> Vec<TempNode> {
+    fn build_subtree(
+        &self,
+        prims: &mut [Prim],
+        extent: Extent,
+        offset: u32,
+        depth: usize,
+    ) -> Vec<TempNode> {
         if self.options.parallel && prims.len() > PARALLEL_THRESHOLD {
-            return self.build_parallel(prims, offset, depth);
+            return self.build_parallel(prims, extent, offset, depth);
         }
         let mut out = Vec::with_capacity(2 * prims.len());
-        self.build_sequential(prims, offset, depth, &mut out);
+        self.build_sequential(prims, extent, offset, depth, &mut out);
         out
     }
 
-    fn build_parallel(&self, prims: &mut [Prim], offset: u32, depth: usize) -> Vec<TempNode> {
-        let (bounds, centers) = bounds_of(prims);
-        let Some((split_axis, mid)) = self.choose_and_partition(prims, &bounds, &centers, depth)
+    fn build_parallel(
+        &self,
+        prims: &mut [Prim],
+        extent: Extent,
+        offset: u32,
+        depth: usize,
+    ) -> Vec<TempNode> {
+        let bounds = extent.bounds;
+        let Some((split_axis, mid, le, re)) = self.choose_and_partition(prims, &extent, depth)
         else {
             return vec![leaf(bounds, offset, prims.len())];
         };
         let (left, right) = prims.split_at_mut(mid);
         let (l, r) = rayon::join(
-            || self.build_subtree(left, offset, depth + 1),
-            || self.build_subtree(right, offset + mid as u32, depth + 1),
+            || self.build_subtree(left, le, offset, depth + 1),
+            || self.build_subtree(right, re, offset + mid as u32, depth + 1),
         );
         let mut out = Vec::with_capacity(1 + l.len() + r.len());
         let right_root = 1 + l.len() as u32;
@@ -232,13 +245,14 @@ impl Builder {
     fn build_sequential(
         &self,
         prims: &mut [Prim],
+        extent: Extent,
         offset: u32,
         depth: usize,
         out: &mut Vec<TempNode>,
     ) -> u32 {
-        let (bounds, centers) = bounds_of(prims);
+        let bounds = extent.bounds;
         let index = out.len() as u32;
-        let Some((split_axis, mid)) = self.choose_and_partition(prims, &bounds, &centers, depth)
+        let Some((split_axis, mid, le, re)) = self.choose_and_partition(prims, &extent, depth)
         else {
             out.push(leaf(bounds, offset, prims.len()));
             return index;
@@ -251,21 +265,21 @@ impl Builder {
             count: 0,
         });
         let (left, right) = prims.split_at_mut(mid);
-        let l = self.build_sequential(left, offset, depth + 1, out);
-        let r = self.build_sequential(right, offset + mid as u32, depth + 1, out);
+        let l = self.build_sequential(left, le, offset, depth + 1, out);
+        let r = self.build_sequential(right, re, offset + mid as u32, depth + 1, out);
         out[index as usize].children = Some((l, r));
         index
     }
 
     /// Decides between a leaf (`None`) and a split; on a split, partitions `prims` and returns
-    /// the split axis and the size of the left part.
+    /// the split axis, the size of the left part and the extents of both parts.
     fn choose_and_partition(
         &self,
         prims: &mut [Prim],
-        bounds: &Aabb,
-        centers: &Aabb,
+        extent: &Extent,
         depth: usize,
-    ) -> Option<(usize, usize)> {
+    ) -> Option<Parts> {
+        let (bounds, centers) = (&extent.bounds, &extent.centers);
         let n = prims.len();
         if n <= 1 {
             return None;
@@ -312,12 +326,34 @@ fn shifted(node: &TempNode, by: u32) -> TempNode {
     }
 }
 
-/// The box of the triangles and the box of their centroids.
-fn bounds_of(prims: &[Prim]) -> (Aabb, Aabb) {
-    prims.iter().fold((Aabb::EMPTY, Aabb::EMPTY), |(b, c), p| {
-        (b.union(p.bounds), c.grow(p.center))
-    })
+/// The box of a set of triangles and the box of their centroids.
+#[derive(Clone, Copy, Debug)]
+struct Extent {
+    bounds: Aabb,
+    centers: Aabb,
 }
+
+impl Extent {
+    const EMPTY: Self = Self {
+        bounds: Aabb::EMPTY,
+        centers: Aabb::EMPTY,
+    };
+
+    fn of(prims: &[Prim]) -> Self {
+        prims.iter().fold(Self::EMPTY, |e, p| e.with(p))
+    }
+
+    #[inline(always)]
+    fn with(self, p: &Prim) -> Self {
+        Self {
+            bounds: self.bounds.union(p.bounds),
+            centers: self.centers.grow(p.center),
+        }
+    }
+}
+
+/// A split: the axis, the size of the left part and both parts' extents.
+type Parts = (usize, usize, Extent, Extent);
 
 fn bin_of(center: f32, min: f32, scale: f32) -> usize {
     (((center - min) * scale) as usize).min(BINS - 1)
@@ -368,40 +404,49 @@ fn best_binned_split(prims: &[Prim], bounds: &Aabb, centers: &Aabb) -> Option<(S
     best.map(|(s, c)| (s, c / area))
 }
 
-/// Partitions in place; returns the split axis and the number of prims on the left (never 0
-/// nor all: a plane that separates nothing falls back to the median).
-fn partition(prims: &mut [Prim], centers: &Aabb, split: Split) -> (usize, usize) {
+/// Partitions in place; returns the split axis, the number of prims on the left (never 0 nor
+/// all: a plane that separates nothing falls back to the median) and both parts' extents.
+fn partition(prims: &mut [Prim], centers: &Aabb, split: Split) -> Parts {
     match split {
         Split::Binned { axis, bin } => {
             let extent = centers.extent()[axis];
             let scale = BINS as f32 / extent;
             let min = centers.min[axis];
-            let mid = partition_in_place(prims, |p| bin_of(p.center[axis], min, scale) < bin);
+            let (mid, le, re) =
+                partition_in_place(prims, |p| bin_of(p.center[axis], min, scale) < bin);
             if mid == 0 || mid == prims.len() {
                 return partition(prims, centers, Split::Median { axis });
             }
-            (axis, mid)
+            (axis, mid, le, re)
         }
         Split::Median { axis } => {
             let mid = prims.len() / 2;
             prims.select_nth_unstable_by(mid, |a, b| a.center[axis].total_cmp(&b.center[axis]));
-            (axis, mid)
+            let (left, right) = prims.split_at(mid);
+            (axis, mid, Extent::of(left), Extent::of(right))
         }
     }
 }
 
-fn partition_in_place(prims: &mut [Prim], goes_left: impl Fn(&Prim) -> bool) -> usize {
-    let mut left = 0;
-    let mut right = prims.len();
+/// Moves the prims for which `goes_left` holds to the front; returns how many, and the extents
+/// of both parts, gathered on the way so that the children need no pass of their own.
+fn partition_in_place(
+    prims: &mut [Prim],
+    goes_left: impl Fn(&Prim) -> bool,
+) -> (usize, Extent, Extent) {
+    let (mut left, mut right) = (0, prims.len());
+    let (mut le, mut re) = (Extent::EMPTY, Extent::EMPTY);
     while left < right {
         if goes_left(&prims[left]) {
+            le = le.with(&prims[left]);
             left += 1;
         } else {
             right -= 1;
             prims.swap(left, right);
+            re = re.with(&prims[right]);
         }
     }
-    left
+    (left, le, re)
 }
 
 /// Index of the first child pair. Node 1 is padding, so that every pair starts at an even
