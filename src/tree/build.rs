@@ -15,7 +15,7 @@
 //! pairs in depth-first order so that a subtree is mostly contiguous in memory, each pair
 //! aligned to an even index (see [`FIRST_PAIR`]).
 
-use glam::Vec3;
+use glam::{Vec3, Vec3A};
 
 use crate::geom::Aabb;
 use crate::mesh::Mesh;
@@ -136,11 +136,45 @@ pub struct BuiltTree {
     pub depth: usize,
 }
 
+/// A box in SIMD-friendly form, for the hot loops of the build (binning, partition).
+#[derive(Clone, Copy, Debug)]
+struct Box3A {
+    min: Vec3A,
+    max: Vec3A,
+}
+
+impl Box3A {
+    const EMPTY: Self = Self {
+        min: Vec3A::splat(f32::INFINITY),
+        max: Vec3A::splat(f32::NEG_INFINITY),
+    };
+
+    #[inline(always)]
+    fn union(self, other: Self) -> Self {
+        Self {
+            min: self.min.min(other.min),
+            max: self.max.max(other.max),
+        }
+    }
+
+    #[inline(always)]
+    fn grow(self, p: Vec3A) -> Self {
+        Self {
+            min: self.min.min(p),
+            max: self.max.max(p),
+        }
+    }
+
+    fn aabb(self) -> Aabb {
+        Aabb::new(self.min.into(), self.max.into())
+    }
+}
+
 /// One triangle during the build.
 #[derive(Clone, Copy, Debug)]
 struct Prim {
-    bounds: Aabb,
-    center: Vec3,
+    bounds: Box3A,
+    center: Vec3A,
     id: u32,
 }
 
@@ -164,8 +198,11 @@ pub fn build(mesh: &Mesh, options: &BuildOptions) -> Result<BuiltTree, BuildErro
         .map(|id| {
             let bounds = Aabb::from_points(&mesh.triangle(id));
             Prim {
-                bounds,
-                center: bounds.center(),
+                bounds: Box3A {
+                    min: bounds.min.into(),
+                    max: bounds.max.into(),
+                },
+                center: bounds.center().into(),
                 id,
             }
         })
@@ -218,7 +255,7 @@ impl Builder {
         offset: u32,
         depth: usize,
     ) -> Vec<TempNode> {
-        let bounds = extent.bounds;
+        let bounds = extent.bounds.aabb();
         let Some((split_axis, mid, le, re)) = self.choose_and_partition(prims, &extent, depth)
         else {
             return vec![leaf(bounds, offset, prims.len())];
@@ -250,7 +287,7 @@ impl Builder {
         depth: usize,
         out: &mut Vec<TempNode>,
     ) -> u32 {
-        let bounds = extent.bounds;
+        let bounds = extent.bounds.aabb();
         let index = out.len() as u32;
         let Some((split_axis, mid, le, re)) = self.choose_and_partition(prims, &extent, depth)
         else {
@@ -279,7 +316,7 @@ impl Builder {
         extent: &Extent,
         depth: usize,
     ) -> Option<Parts> {
-        let (bounds, centers) = (&extent.bounds, &extent.centers);
+        let (bounds, centers) = (&extent.bounds.aabb(), &extent.centers.aabb());
         let n = prims.len();
         if n <= 1 {
             return None;
@@ -329,14 +366,14 @@ fn shifted(node: &TempNode, by: u32) -> TempNode {
 /// The box of a set of triangles and the box of their centroids.
 #[derive(Clone, Copy, Debug)]
 struct Extent {
-    bounds: Aabb,
-    centers: Aabb,
+    bounds: Box3A,
+    centers: Box3A,
 }
 
 impl Extent {
     const EMPTY: Self = Self {
-        bounds: Aabb::EMPTY,
-        centers: Aabb::EMPTY,
+        bounds: Box3A::EMPTY,
+        centers: Box3A::EMPTY,
     };
 
     fn of(prims: &[Prim]) -> Self {
@@ -368,7 +405,7 @@ fn best_binned_split(prims: &[Prim], bounds: &Aabb, centers: &Aabb) -> Option<(S
         Vec3::splat(BINS as f32) / extent,
         Vec3::ZERO,
     );
-    let mut bin_bounds = [[Aabb::EMPTY; BINS]; 3];
+    let mut bin_bounds = [[Box3A::EMPTY; BINS]; 3];
     let mut bin_counts = [[0u32; BINS]; 3];
     for p in prims {
         for axis in 0..3 {
@@ -377,6 +414,7 @@ fn best_binned_split(prims: &[Prim], bounds: &Aabb, centers: &Aabb) -> Option<(S
             bin_counts[axis][b] += 1;
         }
     }
+    let bin_bounds = bin_bounds.map(|axis| axis.map(Box3A::aabb));
     let mut best: Option<(Split, f32)> = None;
     for axis in (0..3).filter(|&a| extent[a] > 0.0) {
         // Right-to-left sweep stores the cost of each right part; left-to-right finishes.
