@@ -341,6 +341,25 @@ fn chunk_len(n: usize, options: &BatchOptions) -> usize {
     chunk.max(1)
 }
 
+/// Runs `f` on matching chunks of `rays` and `out`, on rayon's pool when `options.parallel`.
+fn for_each_chunk<T: Send>(
+    rays: &[Ray],
+    out: &mut [T],
+    options: &BatchOptions,
+    f: impl Fn(&[Ray], &mut [T]) + Sync,
+) {
+    let chunk = chunk_len(rays.len(), options);
+    if options.parallel {
+        rays.par_chunks(chunk)
+            .zip(out.par_chunks_mut(chunk))
+            .for_each(|(r, o)| f(r, o));
+    } else {
+        rays.chunks(chunk)
+            .zip(out.chunks_mut(chunk))
+            .for_each(|(r, o)| f(r, o));
+    }
+}
+
 /// The batched queries, for every [`Bvh`]. Output slices must be as long as `rays`.
 pub trait BatchQueries: Bvh {
     /// Closest hit of every ray (`hits[i]` for `rays[i]`), identical to
@@ -363,16 +382,7 @@ pub trait BatchQueries: Bvh {
             }
             return Ok(());
         }
-        let chunk = chunk_len(rays.len(), options);
-        if options.parallel {
-            rays.par_chunks(chunk)
-                .zip(hits.par_chunks_mut(chunk))
-                .for_each(|(r, h)| closest_chunk(self, r, h, options));
-        } else {
-            rays.chunks(chunk)
-                .zip(hits.chunks_mut(chunk))
-                .for_each(|(r, h)| closest_chunk(self, r, h, options));
-        }
+        for_each_chunk(rays, hits, options, |r, h| closest_chunk(self, r, h, options));
         Ok(())
     }
 
@@ -396,16 +406,7 @@ pub trait BatchQueries: Bvh {
             }
             return Ok(());
         }
-        let chunk = chunk_len(rays.len(), options);
-        if options.parallel {
-            rays.par_chunks(chunk)
-                .zip(occluded.par_chunks_mut(chunk))
-                .for_each(|(r, o)| any_chunk(self, r, o, options));
-        } else {
-            rays.chunks(chunk)
-                .zip(occluded.chunks_mut(chunk))
-                .for_each(|(r, o)| any_chunk(self, r, o, options));
-        }
+        for_each_chunk(rays, occluded, options, |r, o| any_chunk(self, r, o, options));
         Ok(())
     }
 
