@@ -382,7 +382,9 @@ pub trait BatchQueries: Bvh {
             }
             return Ok(());
         }
-        for_each_chunk(rays, hits, options, |r, h| closest_chunk(self, r, h, options));
+        for_each_chunk(rays, hits, options, |r, h| {
+            closest_chunk(self, r, h, options)
+        });
         Ok(())
     }
 
@@ -406,7 +408,9 @@ pub trait BatchQueries: Bvh {
             }
             return Ok(());
         }
-        for_each_chunk(rays, occluded, options, |r, o| any_chunk(self, r, o, options));
+        for_each_chunk(rays, occluded, options, |r, o| {
+            any_chunk(self, r, o, options)
+        });
         Ok(())
     }
 
