@@ -65,7 +65,9 @@ pub struct BatchOptions {
     pub ordering: BatchOrdering,
     /// Split large batches over rayon's current thread pool.
     pub parallel: bool,
-    /// Batches smaller than this use the single-ray path.
+    /// Batches smaller than this use the single-ray path. The default, 2048, sits in the
+    /// crossover the bench's batch-size sweep measured on the bunny (batched lost at 64-1k rays
+    /// and won from 4k on, one thread).
     pub min_batch: usize,
     /// Smallest chunk handed to one rayon task.
     pub min_chunk: usize,
@@ -85,7 +87,7 @@ impl Default for BatchOptions {
             kernel: Kernel::Watertight,
             ordering: BatchOrdering::ByOctant,
             parallel: true,
-            min_batch: 32,
+            min_batch: 2048,
             min_chunk: 4096,
             max_chunk: 1 << 20,
             single_ray_below: 8,
