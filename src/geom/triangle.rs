@@ -17,7 +17,7 @@
 //! Both kernels return `t` and barycentrics `u, v` with `p = (1 - u - v) * v0 + u * v1 + v * v2`,
 //! accept `tmin <= t <= tmax`, never report a hit on a zero-area triangle, and only report hits
 //! that agree with the conservative box test of the triangle's bounds (see
-//! [`agree_with_bounds`]), which is what lets every traversal order give the same answer.
+//! `agree_with_bounds`), which is what lets every traversal order give the same answer.
 
 use glam::{DVec3, Vec3};
 

@@ -33,7 +33,7 @@ impl Hit {
         self.t < other.t || (self.t == other.t && self.triangle < other.triangle)
     }
 
-    /// Sorts hits by `t`, then triangle id (the order [`single::all_hits`] returns).
+    /// Sorts hits by `t`, then triangle id (the order [`single::RayQueries::all_hits`] returns).
     pub fn sort(hits: &mut [Hit]) {
         hits.sort_by(|a, b| a.t.total_cmp(&b.t).then(a.triangle.cmp(&b.triangle)));
     }

@@ -1,9 +1,9 @@
 //! Batched queries: a whole array of rays goes down the tree once (seed 001).
 //!
 //! Rays are prepared once, grouped by direction octant with a counting sort, and each
-//! group is traversed with move-to-front partitioning ([`traverse`]): every node's box is
+//! group is traversed with move-to-front partitioning (`traverse`): every node's box is
 //! fetched, dequantized or recomputed once per group, every leaf triangle loaded once per
-//! group, and the box test runs over structure-of-arrays lanes ([`lanes`]) with SIMD across
+//! group, and the box test runs over structure-of-arrays lanes (`lanes`) with SIMD across
 //! rays ([`partition`]: AVX-512, AVX2 or portable, chosen at run time). Grouping by octant lets the precomputed child order (PNS) apply to the whole
 //! group. The triangle kernels are the very functions the single-ray path runs.
 //!

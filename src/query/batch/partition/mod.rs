@@ -1,6 +1,6 @@
 //! One box against many rays, with move-to-front: the inner loop of batched traversal.
 //!
-//! [`partition`] tests the rays in lanes `start..end` against a box and leaves the ones that
+//! `partition` tests the rays in lanes `start..end` against a box and leaves the ones that
 //! touch it at the front of the range, in their original order, followed by the others, also in
 //! order (a stable partition: every implementation below produces the same lane order, which
 //! keeps them easy to compare). Rays that touch the box are written forward in place (the
@@ -9,9 +9,9 @@
 //! unpredictable for incoherent rays.
 //!
 //! Three implementations, picked at run time:
-//! - [`avx512`]: 16 rays per step, compress-stores write the touching rays forward.
-//! - [`avx2`]: 8 rays per step, the compress is a permute from a 256-entry lookup table.
-//! - [`portable`]: one ray per step, safe code; used on other CPUs (and tested against the
+//! - `avx512`: 16 rays per step, compress-stores write the touching rays forward.
+//! - `avx2`: 8 rays per step, the compress is a permute from a 256-entry lookup table.
+//! - `portable`: one ray per step, safe code; used on other CPUs (and tested against the
 //!   others).
 //!
 //! All use the same arithmetic as the single-ray slab test ([`crate::geom::aabb`]), in the same
@@ -30,7 +30,7 @@ use crate::geom::Aabb;
 /// Same constant as the single-ray test (see [`crate::geom::aabb`]).
 pub(crate) const EXIT_SCALE: f32 = 1.000_000_4;
 
-/// Which implementation [`partition`] uses on this CPU.
+/// Which implementation `partition` uses on this CPU.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum PartitionKernel {
     Avx512,
