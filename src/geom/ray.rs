@@ -152,6 +152,13 @@ impl PreparedRay {
     /// Precomputes the kernel constants; `None` if the ray is invalid (it misses everything).
     pub fn new(ray: &Ray) -> Option<Self> {
         ray.validate().ok()?;
+        Some(Self::from_valid(ray))
+    }
+
+    /// [`PreparedRay::new`] for a ray the caller has already validated (the batched engine
+    /// validates while grouping rays, and does not repeat it).
+    pub(crate) fn from_valid(ray: &Ray) -> Self {
+        debug_assert!(ray.is_valid());
         let dir = flush_subnormals(ray.dir);
         let abs = dir.abs();
         let kz = if abs.x >= abs.y && abs.x >= abs.z {
@@ -167,7 +174,7 @@ impl PreparedRay {
         let (kx, ky) = ((kz + 1) % 3, (kz + 2) % 3);
         let shear = Vec3::new(dir[kx] / dir[kz], dir[ky] / dir[kz], 1.0 / dir[kz]);
         let inv_dir = Vec3::ONE / dir;
-        Some(Self {
+        Self {
             origin: ray.origin,
             dir,
             inv_dir,
@@ -176,7 +183,7 @@ impl PreparedRay {
             octant_mask: 1u8 << octant(dir),
             kz: kz as u8,
             shear,
-        })
+        }
     }
 }
 

@@ -8,6 +8,8 @@
 //! Entry distances are compared with `<=`: a box entered exactly at the best `t` may still hold
 //! an equal-`t` triangle with a lower id (the tie rule of [`crate::query`]).
 
+use glam::Vec3;
+
 use crate::geom::{Kernel, KernelTask, PreparedRay, Ray, TriangleTest};
 use crate::query::Hit;
 use crate::tree::build::MAX_DEPTH;
@@ -33,8 +35,23 @@ where
     K: TriangleTest,
     V: Visitor,
 {
-    for slot in node.first..node.first + node.count {
-        let (id, tri) = tree.triangle(slot);
+    let triangles = (node.first..node.first + node.count).map(|slot| tree.triangle(slot));
+    test_triangles::<K, V>(ray, triangles, visitor)
+}
+
+/// Tests one ray against `(id, corners)` triangles, reporting hits to `visitor`; true if the
+/// visitor asked to stop. Shared by the single-ray loop and the batched leaves.
+#[inline(always)]
+pub(crate) fn test_triangles<K, V>(
+    ray: &PreparedRay,
+    triangles: impl IntoIterator<Item = (u32, [Vec3; 3])>,
+    visitor: &mut V,
+) -> bool
+where
+    K: TriangleTest,
+    V: Visitor,
+{
+    for (id, tri) in triangles {
         if let Some(h) = K::intersect(ray, &tri, visitor.tmax()) {
             let hit = Hit {
                 t: h.t,

@@ -15,7 +15,8 @@ use super::quantized_nodes::QuantizedNodes;
 use super::{Bvh, NodeView};
 use crate::mesh::Mesh;
 
-/// A node storage format for [`AabbTree`].
+/// A node storage format for [`AabbTree`], implemented by [`FullNodes`] and
+/// [`QuantizedNodes`] in their own modules.
 pub trait NodeFormat: Sized + Send + Sync {
     /// Name for tables.
     const NAME: &'static str;
@@ -26,41 +27,6 @@ pub trait NodeFormat: Sized + Send + Sync {
     fn node_count(&self) -> usize;
     fn view(&self, index: u32) -> NodeView;
     fn heap_bytes(&self) -> usize;
-}
-
-impl NodeFormat for FullNodes {
-    const NAME: &'static str = "aabb";
-    fn pack(built: &BuiltTree) -> Result<Self, BuildError> {
-        FullNodes::pack(&built.nodes, built.triangle_order.len())
-    }
-    fn node_count(&self) -> usize {
-        self.len()
-    }
-    #[inline(always)]
-    fn view(&self, index: u32) -> NodeView {
-        FullNodes::view(self, index)
-    }
-    fn heap_bytes(&self) -> usize {
-        FullNodes::heap_bytes(self)
-    }
-}
-
-impl NodeFormat for QuantizedNodes {
-    const NAME: &'static str = "quantized";
-    const AVX2_TRAVERSAL: bool = false;
-    fn pack(built: &BuiltTree) -> Result<Self, BuildError> {
-        QuantizedNodes::pack(&built.nodes, built.triangle_order.len())
-    }
-    fn node_count(&self) -> usize {
-        self.len()
-    }
-    #[inline(always)]
-    fn view(&self, index: u32) -> NodeView {
-        QuantizedNodes::view(self, index)
-    }
-    fn heap_bytes(&self) -> usize {
-        QuantizedNodes::heap_bytes(self)
-    }
 }
 
 /// A binary AABB tree over a mesh, with node format `N`.

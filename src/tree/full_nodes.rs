@@ -10,8 +10,12 @@
 use glam::Vec3;
 
 use super::NodeView;
-use super::build::{BuildError, BuiltNode};
+use super::aabb_tree::NodeFormat;
+use super::build::{BuildError, BuiltTree};
 use crate::geom::Aabb;
+
+/// The format's name in error messages.
+const FORMAT: &str = "full nodes (32 B)";
 
 const LEAF_BIT: u32 = 1 << 31;
 const COUNT_SHIFT: u32 = 27;
@@ -52,14 +56,15 @@ pub struct FullNodes {
     nodes: Vec<FullNode>,
 }
 
-impl FullNodes {
-    pub const FORMAT: &'static str = "full nodes (32 B)";
+impl NodeFormat for FullNodes {
+    const NAME: &'static str = "aabb";
 
-    pub fn pack(built: &[BuiltNode], slots: usize) -> Result<Self, BuildError> {
+    fn pack(tree: &BuiltTree) -> Result<Self, BuildError> {
+        let (built, slots) = (&tree.nodes, tree.triangle_order.len());
         let max = (LEAF_BIT as usize).min(MAX_SLOTS);
         if built.len() > max || slots > MAX_SLOTS {
             return Err(BuildError::TooLarge {
-                format: Self::FORMAT,
+                format: FORMAT,
                 needed: built.len().max(slots),
                 max,
             });
@@ -80,20 +85,16 @@ impl FullNodes {
         Ok(Self { nodes })
     }
 
-    pub fn len(&self) -> usize {
+    fn node_count(&self) -> usize {
         self.nodes.len()
     }
 
-    pub fn is_empty(&self) -> bool {
-        self.nodes.is_empty()
-    }
-
-    pub fn heap_bytes(&self) -> usize {
+    fn heap_bytes(&self) -> usize {
         self.nodes.len() * size_of::<FullNode>()
     }
 
     #[inline(always)]
-    pub fn view(&self, index: u32) -> NodeView {
+    fn view(&self, index: u32) -> NodeView {
         let n = &self.nodes[index as usize];
         let bounds = Aabb::new(Vec3::from_array(n.min), Vec3::from_array(n.max));
         if is_leaf(n.word) {

@@ -20,9 +20,13 @@
 use glam::Vec3;
 
 use super::NodeView;
-use super::build::{BuildError, BuiltNode, FIRST_PAIR};
+use super::aabb_tree::NodeFormat;
+use super::build::{BuildError, BuiltTree, FIRST_PAIR};
 use super::full_nodes::{MAX_SLOTS, is_leaf, leaf_word, unpack_leaf};
 use crate::geom::Aabb;
+
+/// The format's name in error messages.
+const FORMAT: &str = "quantized nodes (16 B)";
 
 const PAIR_BITS: u32 = 23;
 const PAIR_MASK: u32 = (1 << PAIR_BITS) - 1;
@@ -50,14 +54,16 @@ fn dequantize(origin: f32, step: f32, q: u16) -> f32 {
     origin + q as f32 * step
 }
 
-impl QuantizedNodes {
-    pub const FORMAT: &'static str = "quantized nodes (16 B)";
+impl NodeFormat for QuantizedNodes {
+    const NAME: &'static str = "quantized";
+    const AVX2_TRAVERSAL: bool = false;
 
-    pub fn pack(built: &[BuiltNode], slots: usize) -> Result<Self, BuildError> {
+    fn pack(tree: &BuiltTree) -> Result<Self, BuildError> {
+        let (built, slots) = (&tree.nodes, tree.triangle_order.len());
         let max_nodes = 2 * (PAIR_MASK as usize + 1) + FIRST_PAIR as usize;
         if built.len() > max_nodes || slots > MAX_SLOTS {
             return Err(BuildError::TooLarge {
-                format: Self::FORMAT,
+                format: FORMAT,
                 needed: built.len().max(slots),
                 max: max_nodes.min(MAX_SLOTS),
             });
@@ -93,20 +99,16 @@ impl QuantizedNodes {
         })
     }
 
-    pub fn len(&self) -> usize {
+    fn node_count(&self) -> usize {
         self.nodes.len()
     }
 
-    pub fn is_empty(&self) -> bool {
-        self.nodes.is_empty()
-    }
-
-    pub fn heap_bytes(&self) -> usize {
+    fn heap_bytes(&self) -> usize {
         self.nodes.len() * size_of::<QuantizedNode>()
     }
 
     #[inline(always)]
-    pub fn view(&self, index: u32) -> NodeView {
+    fn view(&self, index: u32) -> NodeView {
         let n = &self.nodes[index as usize];
         let (o, s) = (self.origin, self.step);
         let bounds = Aabb::new(

@@ -206,10 +206,11 @@ fn prepare_groups(rays: &[Ray], ordering: BatchOrdering, s: &mut Scratch) -> [us
     let mut next = starts;
     s.lanes.reset(starts[GROUPS]);
     for (id, (ray, &key)) in rays.iter().zip(&s.keys).enumerate() {
-        let prepared = PreparedRay::new(ray);
-        if let (Some(lane), Some(prepared)) = (next.get_mut(key as usize), prepared) {
-            s.lanes.set(*lane, &prepared, id as u32);
-            *lane += 1;
+        let key = key as usize;
+        if key < GROUPS {
+            s.lanes
+                .set(next[key], &PreparedRay::from_valid(ray), id as u32);
+            next[key] += 1;
         }
     }
     starts

@@ -13,9 +13,11 @@
 
 use super::lanes::Lanes;
 use super::partition::{PartitionKernel, partition};
+use glam::Vec3;
+
 use crate::geom::TriangleTest;
 use crate::query::Hit;
-use crate::query::single::{Visitor, traverse_below};
+use crate::query::single::{Visitor, test_triangles, traverse_below};
 use crate::tree::ordering::second_child_first;
 use crate::tree::{Bvh, NodeView};
 
@@ -65,23 +67,7 @@ pub(crate) fn traverse_group<B, K, V>(
             finish_one_by_one::<B, K, V>(tree, lanes, start, active, node, visitor);
             continue;
         }
-        for slot in node.first..node.first + node.count {
-            let (triangle, corners) = tree.triangle(slot);
-            for lane in start..start + active {
-                let id = lanes.id(lane);
-                let mut tmax = lanes.tmax(lane);
-                if let Some(h) = K::intersect(&lanes.ray(lane), &corners, tmax) {
-                    let hit = Hit {
-                        t: h.t,
-                        triangle,
-                        u: h.u,
-                        v: h.v,
-                    };
-                    visitor.visit(id, hit, &mut tmax);
-                    lanes.set_tmax(lane, tmax);
-                }
-            }
-        }
+        test_leaf::<B, K, V>(tree, lanes, start, active, &node, visitor);
         if node.first_child != 0 {
             let c = node.first_child;
             let (near, far) = if second_child_first(node.order, octant_mask) {
@@ -91,6 +77,43 @@ pub(crate) fn traverse_group<B, K, V>(
             };
             stack.push((far, active as u32));
             stack.push((near, active as u32));
+        }
+    }
+}
+
+/// Most triangles a leaf pass keeps at once; larger triangle ranges go in several passes.
+const LEAF_BATCH: usize = 16;
+
+/// Tests the node's triangles against the `active` rays at `start..`. Each triangle is fetched
+/// once (up to [`LEAF_BATCH`] at a time) for all rays, and each ray is rebuilt from its lane
+/// once for all those triangles.
+fn test_leaf<B, K, V>(
+    tree: &B,
+    lanes: &mut Lanes,
+    start: usize,
+    active: usize,
+    node: &NodeView,
+    visitor: &mut V,
+) where
+    B: Bvh + ?Sized,
+    K: TriangleTest,
+    V: LaneVisitor,
+{
+    let mut fetched = [(0u32, [Vec3::ZERO; 3]); LEAF_BATCH];
+    let end = node.first + node.count;
+    for first in (node.first..end).step_by(LEAF_BATCH) {
+        let count = (end - first).min(LEAF_BATCH as u32) as usize;
+        for (k, slot) in (first..).take(count).enumerate() {
+            fetched[k] = tree.triangle(slot);
+        }
+        for lane in start..start + active {
+            let mut one = OneRay {
+                id: lanes.id(lane),
+                tmax: lanes.tmax(lane),
+                visitor: &mut *visitor,
+            };
+            test_triangles::<K, _>(&lanes.ray(lane), fetched[..count].iter().copied(), &mut one);
+            lanes.set_tmax(lane, one.tmax);
         }
     }
 }
