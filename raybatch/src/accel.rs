@@ -1,0 +1,174 @@
+//! The one interface every acceleration structure implements, and what the queries build on.
+//!
+//! An [`Accel`] answers two questions: "report every hit of this ray" ([`Accel::trace`]) and
+//! "report every hit of each ray of this stream" ([`Accel::trace_stream`], by default one ray
+//! at a time). Closest hit, any hit and all hits are visitors ([`crate::hit`]) written once in
+//! [`crate::query`] on top of these two methods, so every structure gets all of them, per ray
+//! and batched, with the same tie rule and the same exactness contract:
+//!
+//! - report every hit the kernel `K` finds on a triangle of the structure whose `t` lies in
+//!   `[ray.tmin, tmax]`, where `tmax` is the range end the visitor maintains, each triangle at
+//!   most once per ray;
+//! - never skip a part of the structure that may hold such a hit (so the box tests must be
+//!   conservative and compare entry distances with `<=`, see [`crate::hit`]).
+//!
+//! Every binary BVH ([`crate::bvh::Bvh`]) is an `Accel` through the generic engines in
+//! [`crate::traverse`]; a structure with its own walk (a grid, a kd-tree, a scene of instances)
+//! implements `Accel` directly. Per-thread state a structure needs (a traversal stack, a box
+//! cache, mailboxes) is its [`Accel::Scratch`], kept in the thread's
+//! [`crate::workspace::Workspace`] and reused from query to query.
+
+use crate::batch::lanes::Lanes;
+use crate::batch::options::BatchOptions;
+use crate::batch::partition::Partitioner;
+use crate::geom::{Aabb, PreparedRay, TriangleTest};
+use crate::hit::Visitor;
+
+/// An acceleration structure: the traversal every query is written on (see the module docs).
+pub trait Accel: Sync + Sized {
+    /// Per-thread working memory of this structure's traversals (a stack, a box cache).
+    /// Created on first use in each thread's workspace and reused afterwards; shared by every
+    /// structure of the same type that the thread queries.
+    type Scratch: Default + Send + 'static;
+
+    /// Reports to `visitor`, as ray number `id`, every hit of `ray` with kernel `K` in
+    /// `[ray.tmin, tmax]`, where `tmax` starts at `ray.tmax` and follows what the visitor sets;
+    /// returns the final `tmax`.
+    fn trace<K: TriangleTest, V: Visitor>(
+        &self,
+        ray: &PreparedRay,
+        id: u32,
+        scratch: &mut Self::Scratch,
+        visitor: &mut V,
+    ) -> f32;
+
+    /// [`Accel::trace`] for every ray of `stream` (each reported with its id in the batch),
+    /// updating each ray's range end in the stream. The default traces the rays one at a time;
+    /// structures that can share work between rays (a node fetched once for all rays that reach
+    /// it) override it. `K` may differ from the per-ray kernel (the watertight kernel dispatches
+    /// on each ray's axis here) but must give the same answers.
+    fn trace_stream<K: TriangleTest, V: Visitor>(
+        &self,
+        stream: &mut RayStream<'_>,
+        scratch: &mut Self::Scratch,
+        visitor: &mut V,
+    ) {
+        for i in 0..stream.len() {
+            let ray = stream.ray(i);
+            let tmax = self.trace::<K, V>(&ray, stream.id(i), scratch, visitor);
+            stream.set_tmax(i, tmax);
+        }
+    }
+}
+
+/// What a structure is and what it costs: for tables, reports and the catalog.
+pub trait Footprint {
+    /// Short name for tables (`aabb`, `quantized`, ...).
+    fn name(&self) -> &'static str;
+
+    /// Triangles of the mesh the structure answers for (degenerate ones included).
+    fn triangle_count(&self) -> usize;
+
+    /// Nodes (or cells) of the structure.
+    fn node_count(&self) -> usize;
+
+    /// Bytes the structure adds to the mesh (nodes, triangle order, copies).
+    fn heap_bytes(&self) -> usize;
+
+    /// Extra bytes per triangle of the mesh.
+    fn bytes_per_triangle(&self) -> f64 {
+        self.heap_bytes() as f64 / self.triangle_count().max(1) as f64
+    }
+}
+
+/// The rays of one batch handed to [`Accel::trace_stream`]: prepared once (validated, kernel
+/// constants computed) and kept in structure-of-arrays lanes, so that a box test runs over 8 or
+/// 16 rays per instruction and a partition moves them without pointer chasing.
+///
+/// Ray `i` (for `i < len()`) has a position in the caller's batch ([`RayStream::id`]) and a
+/// current range end ([`RayStream::tmax`]). When the batch was grouped by direction octant, all
+/// rays share one octant and [`RayStream::octant_mask`] is non-zero.
+pub struct RayStream<'a> {
+    pub(crate) lanes: &'a mut Lanes,
+    pub(crate) start: usize,
+    pub(crate) end: usize,
+    pub(crate) octant_mask: u8,
+    pub(crate) partitioner: Partitioner,
+    pub(crate) options: &'a BatchOptions,
+}
+
+impl<'a> RayStream<'a> {
+    /// Lanes `start..end` of `lanes`.
+    pub(crate) fn new(
+        lanes: &'a mut Lanes,
+        start: usize,
+        end: usize,
+        octant_mask: u8,
+        partitioner: Partitioner,
+        options: &'a BatchOptions,
+    ) -> Self {
+        debug_assert!(start <= end && end <= lanes.len());
+        Self {
+            lanes,
+            start,
+            end,
+            octant_mask,
+            partitioner,
+            options,
+        }
+    }
+
+    /// Number of rays.
+    pub fn len(&self) -> usize {
+        self.end - self.start
+    }
+
+    /// True if the stream holds no ray.
+    pub fn is_empty(&self) -> bool {
+        self.start == self.end
+    }
+
+    /// `1 << octant` when every ray of the stream has that direction octant, 0 when they may
+    /// differ (see [`crate::geom::octant`]).
+    pub fn octant_mask(&self) -> u8 {
+        self.octant_mask
+    }
+
+    /// Ray `i`, bit for bit as prepared, with its current range end.
+    #[inline(always)]
+    pub fn ray(&self, i: usize) -> PreparedRay {
+        self.lanes.ray(self.start + i)
+    }
+
+    /// The position of ray `i` in the caller's batch (what visitors receive).
+    #[inline(always)]
+    pub fn id(&self, i: usize) -> u32 {
+        self.lanes.id(self.start + i)
+    }
+
+    /// Current range end of ray `i` (`-inf` once the ray is done).
+    #[inline(always)]
+    pub fn tmax(&self, i: usize) -> f32 {
+        self.lanes.tmax(self.start + i)
+    }
+
+    /// Sets the range end of ray `i`.
+    #[inline(always)]
+    pub fn set_tmax(&mut self, i: usize, tmax: f32) {
+        self.lanes.set_tmax(self.start + i, tmax)
+    }
+
+    /// Tests rays `0..count` against `bounds` with the conservative slab test, moves those that
+    /// touch it to the front (keeping their order), and returns how many there are.
+    #[inline]
+    pub fn partition(&mut self, count: usize, bounds: &Aabb) -> usize {
+        debug_assert!(count <= self.len());
+        self.partitioner
+            .run(self.lanes, bounds, self.start, self.start + count)
+    }
+
+    /// The options of the batched call (tuning knobs a structure may read).
+    pub fn options(&self) -> &BatchOptions {
+        self.options
+    }
+}

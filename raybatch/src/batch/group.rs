@@ -1,0 +1,70 @@
+//! Grouping a chunk's rays by direction octant, straight into lanes.
+//!
+//! Rays are validated and prepared once, and sorted into 8 groups with a counting sort (one
+//! group when the ordering is [`BatchOrdering::Unordered`]), so that within a group every ray
+//! has the same octant and a node's precomputed child order applies to all of them. Invalid
+//! rays get no lane: they miss.
+
+use super::lanes::Lanes;
+use super::options::BatchOrdering;
+use crate::geom::ray::flush_subnormals;
+use crate::geom::{PreparedRay, Ray, octant};
+
+/// Number of groups: the 8 octants (a single group when unordered).
+pub(crate) const GROUPS: usize = 8;
+
+/// The groups of a prepared chunk: group `g` is lanes `starts[g]..starts[g + 1]`.
+pub(crate) struct Groups {
+    starts: [usize; GROUPS + 1],
+    ordering: BatchOrdering,
+}
+
+impl Groups {
+    /// The non-empty groups as `(start, end, octant_mask)`; the mask is 0 when unordered.
+    pub(crate) fn iter(&self) -> impl Iterator<Item = (usize, usize, u8)> + '_ {
+        (0..GROUPS).filter_map(|g| {
+            let (start, end) = (self.starts[g], self.starts[g + 1]);
+            let mask = match self.ordering {
+                BatchOrdering::ByOctant => 1u8 << g,
+                BatchOrdering::Unordered => 0,
+            };
+            (start < end).then_some((start, end, mask))
+        })
+    }
+}
+
+/// Prepares the chunk's rays into `lanes`, grouped (see the module docs); `keys` is scratch.
+pub(crate) fn prepare(
+    rays: &[Ray],
+    ordering: BatchOrdering,
+    lanes: &mut Lanes,
+    keys: &mut Vec<u8>,
+) -> Groups {
+    // Pass 1: each ray's group (GROUPS for an invalid ray), and the group sizes.
+    keys.clear();
+    let mut counts = [0usize; GROUPS + 1];
+    for ray in rays {
+        let key = match (ray.validate(), ordering) {
+            (Err(_), _) => GROUPS,
+            (Ok(()), BatchOrdering::ByOctant) => octant(flush_subnormals(ray.dir)) as usize,
+            (Ok(()), BatchOrdering::Unordered) => 0,
+        };
+        counts[key] += 1;
+        keys.push(key as u8);
+    }
+    let mut starts = [0usize; GROUPS + 1];
+    for g in 0..GROUPS {
+        starts[g + 1] = starts[g] + counts[g];
+    }
+    // Pass 2: prepare each valid ray straight into its lane.
+    let mut next = starts;
+    lanes.reset(starts[GROUPS]);
+    for (id, (ray, &key)) in rays.iter().zip(keys.iter()).enumerate() {
+        let key = key as usize;
+        if key < GROUPS {
+            lanes.set(next[key], &PreparedRay::from_valid(ray), id as u32);
+            next[key] += 1;
+        }
+    }
+    Groups { starts, ordering }
+}

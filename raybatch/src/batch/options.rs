@@ -1,0 +1,113 @@
+//! Options of the batched queries.
+
+use crate::geom::Kernel;
+
+use super::partition::PartitionKernel;
+
+/// How rays of one batch are grouped so that node ordering applies.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum BatchOrdering {
+    /// Group by direction octant and use each node's precomputed order (the default).
+    #[default]
+    ByOctant,
+    /// One group for all directions, children in fixed order.
+    Unordered,
+}
+
+impl BatchOrdering {
+    /// Every ordering.
+    pub const ALL: [BatchOrdering; 2] = [BatchOrdering::ByOctant, BatchOrdering::Unordered];
+
+    /// Short name for tables.
+    pub fn name(self) -> &'static str {
+        match self {
+            BatchOrdering::ByOctant => "by-octant",
+            BatchOrdering::Unordered => "unordered",
+        }
+    }
+}
+
+/// Options of the batched queries. Every combination gives the same answers; they only change
+/// speed.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct BatchOptions {
+    /// The ray/triangle kernel.
+    pub kernel: Kernel,
+    /// How rays are grouped by direction.
+    pub ordering: BatchOrdering,
+    /// Split large batches over rayon's current thread pool (on the calling thread if no thread
+    /// can be started).
+    pub parallel: bool,
+    /// Batches smaller than this use the single-ray path. The default, 2048, sits in the
+    /// crossover the bench's batch-size sweep measured on the bunny (batched lost at 64-1k rays
+    /// and won from 4k on, one thread).
+    pub min_batch: usize,
+    /// Smallest chunk handed to one rayon task.
+    pub min_chunk: usize,
+    /// Largest chunk traversed as one batch: bigger chunks share each node fetch among more
+    /// rays, smaller ones keep the working set in cache.
+    pub max_chunk: usize,
+    /// A node reached by fewer rays than this finishes its subtree one ray at a time.
+    pub single_ray_below: usize,
+    /// Implementation of the box test over many rays ([`PartitionKernel::detect`] by
+    /// default); one the CPU lacks is replaced by the portable one.
+    pub partition: PartitionKernel,
+}
+
+impl Default for BatchOptions {
+    fn default() -> Self {
+        Self {
+            kernel: Kernel::Watertight,
+            ordering: BatchOrdering::ByOctant,
+            parallel: true,
+            min_batch: 2048,
+            min_chunk: 4096,
+            max_chunk: 1 << 20,
+            single_ray_below: 8,
+            partition: PartitionKernel::detect(),
+        }
+    }
+}
+
+impl BatchOptions {
+    /// With [`BatchOptions::kernel`].
+    pub fn with_kernel(mut self, kernel: Kernel) -> Self {
+        self.kernel = kernel;
+        self
+    }
+    /// With [`BatchOptions::ordering`].
+    pub fn with_ordering(mut self, ordering: BatchOrdering) -> Self {
+        self.ordering = ordering;
+        self
+    }
+    /// With [`BatchOptions::parallel`].
+    pub fn with_parallel(mut self, parallel: bool) -> Self {
+        self.parallel = parallel;
+        self
+    }
+    /// With [`BatchOptions::min_batch`].
+    pub fn with_min_batch(mut self, min_batch: usize) -> Self {
+        self.min_batch = min_batch;
+        self
+    }
+    /// With [`BatchOptions::min_chunk`] (at least 1).
+    pub fn with_min_chunk(mut self, min_chunk: usize) -> Self {
+        self.min_chunk = min_chunk.max(1);
+        self
+    }
+    /// With [`BatchOptions::max_chunk`] (at least 1).
+    pub fn with_max_chunk(mut self, max_chunk: usize) -> Self {
+        self.max_chunk = max_chunk.max(1);
+        self
+    }
+    /// With [`BatchOptions::single_ray_below`].
+    pub fn with_single_ray_below(mut self, rays: usize) -> Self {
+        self.single_ray_below = rays;
+        self
+    }
+    /// With [`BatchOptions::partition`].
+    pub fn with_partition(mut self, partition: PartitionKernel) -> Self {
+        self.partition = partition;
+        self
+    }
+}

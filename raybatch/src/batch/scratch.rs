@@ -1,0 +1,16 @@
+//! The batched engine's per-thread arrays, reused from call to call (they live in the thread's
+//! [`crate::workspace::Workspace`]).
+
+use super::lanes::Lanes;
+use crate::hit::Hit;
+
+/// The batched engine's working arrays.
+#[derive(Debug, Default)]
+pub(crate) struct BatchScratch {
+    /// The chunk's prepared rays.
+    pub lanes: Lanes,
+    /// Closest-hit answers of the chunk, by ray.
+    pub best: Vec<Hit>,
+    /// Each ray's group while grouping.
+    pub keys: Vec<u8>,
+}

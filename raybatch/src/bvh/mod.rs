@@ -1,0 +1,127 @@
+//! The binary-BVH family: the [`Bvh`] node interface, the SAH builder, precomputed node
+//! sorting, and the AABB tree in its node formats.
+//!
+//! A BVH only says what its nodes hold; the traversals are written once against [`Bvh`] in
+//! [`crate::traverse`] (one ray at a time, and a stream of rays going down once), which makes
+//! every `Bvh` an [`crate::accel::Accel`]. A node's box is read apart from its contents
+//! ([`Bvh::bounds`] and [`Bvh::node`]) so that a traversal computes each box once: a tree whose
+//! boxes are expensive (dequantized, or recomputed from triangles like the zero-byte tree's)
+//! pays for each box once per visit. Box reads take the structure's per-thread cache
+//! ([`Bvh::Cache`], kept in the thread's [`crate::workspace::Workspace`]).
+//!
+//! A node may own triangles *and* have children (the zero-byte tree's nodes do): traversal
+//! tests a node's triangles, then descends.
+//!
+//! - [`build`]: binned SAH build shared by every node format.
+//! - [`ordering`]: the child-order byte per node (PNS, seed 000).
+//! - [`nodes`]: the node formats (full 32-byte, quantized 16-byte).
+//! - [`tree`]: [`AabbTree`], a mesh plus a node array in one of the formats.
+
+pub mod build;
+pub mod nodes;
+pub mod ordering;
+pub mod tree;
+
+use glam::Vec3;
+
+use crate::geom::Aabb;
+
+pub use build::{BuildError, BuildOptions};
+pub use ordering::ChildOrdering;
+pub use tree::{AabbTree, QuantizedAabbTree};
+
+/// A node's contents, without its box: its triangles and its children.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Node {
+    /// First of the node's triangle slots (see [`Bvh::triangle`]).
+    pub first: u32,
+    /// Number of triangle slots, `first..first + count` (0 for a node with none).
+    pub count: u32,
+    /// Children `first_child` and `first_child + 1`; 0 when the node has none (the root is node
+    /// 0, so it is never a child).
+    pub first_child: u32,
+    /// Child ordering byte: bit `o` set means rays of octant `o` visit the second child first.
+    pub order: u8,
+}
+
+impl Node {
+    /// A leaf owning triangle slots `first..first + count`.
+    #[inline(always)]
+    pub fn leaf(first: u32, count: u32) -> Self {
+        Self {
+            first,
+            count,
+            first_child: 0,
+            order: 0,
+        }
+    }
+
+    /// An internal node with children `first_child` and `first_child + 1`.
+    #[inline(always)]
+    pub fn internal(first_child: u32, order: u8) -> Self {
+        Self {
+            first: 0,
+            count: 0,
+            first_child,
+            order,
+        }
+    }
+
+    /// True if the node has children.
+    #[inline(always)]
+    pub fn has_children(&self) -> bool {
+        self.first_child != 0
+    }
+}
+
+/// The node interface of a binary BVH. Node 0 is the root; a tree with no nodes (an empty mesh,
+/// or only degenerate triangles) is hit by nothing.
+///
+/// Contract the traversals rely on: every node's box contains its triangles' bounding boxes and
+/// its children's boxes (boxes may be larger than tight, never smaller); child indices are
+/// below [`Bvh::node_count`] and every path from the root is at most [`Bvh::depth`] nodes long.
+pub trait Bvh: Sync {
+    /// Per-thread state box reads need (the zero-byte tree's box cache); `()` for stored boxes.
+    type Cache: Default + Send + 'static;
+
+    /// Whether the single-ray loop should run its AVX2-compiled copy where the CPU has AVX2
+    /// (measured per node format: it speeds up full nodes and slows down quantized ones).
+    const AVX2_TRAVERSAL: bool = true;
+
+    /// Number of nodes (0 for an empty tree).
+    fn node_count(&self) -> usize;
+
+    /// The box of node `index` (< `node_count()`).
+    fn bounds(&self, index: u32, cache: &mut Self::Cache) -> Aabb;
+
+    /// The boxes of the children `first_child` and `first_child + 1` (a format that stores a
+    /// pair together may read both at once).
+    #[inline(always)]
+    fn child_bounds(&self, first_child: u32, cache: &mut Self::Cache) -> [Aabb; 2] {
+        [
+            self.bounds(first_child, cache),
+            self.bounds(first_child + 1, cache),
+        ]
+    }
+
+    /// The contents of node `index` (< `node_count()`).
+    fn node(&self, index: u32) -> Node;
+
+    /// Triangle slot `slot`: its id in the mesh and its corners.
+    fn triangle(&self, slot: u32) -> (u32, [Vec3; 3]);
+
+    /// Longest root-to-leaf path, in nodes: traversal stacks are sized from it.
+    fn depth(&self) -> usize;
+}
+
+/// Per-thread scratch of the BVH traversals: the stacks of both engines and the tree's cache.
+/// Sized on first use and reused, so no query allocates or clears a stack.
+#[derive(Debug, Default)]
+pub struct BvhScratch<C> {
+    /// Single-ray stack: pending node and its entry distance.
+    pub(crate) stack: Vec<(u32, f32)>,
+    /// Batched stack: pending node and how many rays of the stream reach it.
+    pub(crate) stream_stack: Vec<(u32, u32)>,
+    /// The tree's box cache.
+    pub(crate) cache: C,
+}

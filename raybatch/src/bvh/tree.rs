@@ -1,0 +1,126 @@
+//! The AABB tree: a binary BVH built with the binned SAH ([`super::build`]), stored in one of two
+//! node formats ([`super::nodes::full`], 32 bytes, or [`super::nodes::quantized`], 16 bytes).
+//!
+//! The tree keeps the mesh (shared through an `Arc`, never copied or reordered) and a triangle
+//! order array (4 bytes per triangle) that maps leaf slots to triangle ids; degenerate triangles
+//! are left out of it, so they are never tested.
+
+use std::sync::Arc;
+
+use glam::Vec3;
+
+use super::build::{BuildError, BuildOptions, build};
+use super::nodes::{FullNodes, NodeFormat, QuantizedNodes};
+use super::{Bvh, Node};
+use crate::accel::Footprint;
+use crate::geom::Aabb;
+use crate::mesh::Mesh;
+
+/// A binary AABB tree over a mesh, with node format `N`.
+#[derive(Clone, Debug)]
+pub struct AabbTree<N: NodeFormat = FullNodes> {
+    mesh: Arc<Mesh>,
+    nodes: N,
+    triangle_order: Vec<u32>,
+    /// Corners of each slot's triangle, if [`BuildOptions::leaf_corners`] (else empty).
+    corners: Vec<[Vec3; 3]>,
+    depth: usize,
+    options: BuildOptions,
+}
+
+/// An [`AabbTree`] with 16-byte quantized nodes.
+pub type QuantizedAabbTree = AabbTree<QuantizedNodes>;
+
+impl<N: NodeFormat> AabbTree<N> {
+    /// Builds the tree. Errors if the options are invalid or the mesh is too large for the
+    /// node format; an empty mesh gives an empty tree that every ray misses.
+    pub fn build(mesh: impl Into<Arc<Mesh>>, options: &BuildOptions) -> Result<Self, BuildError> {
+        let mesh = mesh.into();
+        let built = build(&mesh, options)?;
+        let nodes = N::pack(&built)?;
+        let corners = if options.leaf_corners {
+            built
+                .triangle_order
+                .iter()
+                .map(|&id| mesh.triangle(id))
+                .collect()
+        } else {
+            Vec::new()
+        };
+        Ok(Self {
+            mesh,
+            nodes,
+            corners,
+            triangle_order: built.triangle_order,
+            depth: built.depth,
+            options: *options,
+        })
+    }
+
+    /// The options the tree was built with.
+    pub fn options(&self) -> &BuildOptions {
+        &self.options
+    }
+
+    /// The mesh the tree was built over; triangle ids refer to it.
+    pub fn mesh(&self) -> &Mesh {
+        &self.mesh
+    }
+
+    /// The shared mesh.
+    pub fn mesh_arc(&self) -> &Arc<Mesh> {
+        &self.mesh
+    }
+}
+
+impl<N: NodeFormat> Bvh for AabbTree<N> {
+    type Cache = ();
+    const AVX2_TRAVERSAL: bool = N::AVX2_TRAVERSAL;
+
+    fn node_count(&self) -> usize {
+        self.nodes.node_count()
+    }
+
+    #[inline(always)]
+    fn bounds(&self, index: u32, _: &mut ()) -> Aabb {
+        self.nodes.bounds(index)
+    }
+
+    #[inline(always)]
+    fn node(&self, index: u32) -> Node {
+        self.nodes.node(index)
+    }
+
+    #[inline(always)]
+    fn triangle(&self, slot: u32) -> (u32, [Vec3; 3]) {
+        let id = self.triangle_order[slot as usize];
+        match self.corners.get(slot as usize) {
+            Some(corners) => (id, *corners),
+            None => (id, self.mesh.triangle(id)),
+        }
+    }
+
+    fn depth(&self) -> usize {
+        self.depth
+    }
+}
+
+impl<N: NodeFormat> Footprint for AabbTree<N> {
+    fn name(&self) -> &'static str {
+        N::NAME
+    }
+
+    fn triangle_count(&self) -> usize {
+        self.mesh.triangle_count()
+    }
+
+    fn node_count(&self) -> usize {
+        self.nodes.node_count()
+    }
+
+    fn heap_bytes(&self) -> usize {
+        self.nodes.heap_bytes()
+            + self.triangle_order.len() * size_of::<u32>()
+            + self.corners.len() * size_of::<[Vec3; 3]>()
+    }
+}

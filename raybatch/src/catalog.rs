@@ -1,0 +1,252 @@
+//! Every structure of the crate by name, and one dynamic type that answers every query.
+//!
+//! [`AccelKind`] is the one list of structures: the command-line tools, the benchmarks, the peer
+//! comparison and the tests iterate over [`AccelKind::ALL`], so a new structure is one variant
+//! here (with its name and its build) and shows up everywhere. [`AnyAccel`] wraps any
+//! [`Accel`] behind a trait object, so structures of different types can sit in one list and
+//! be chosen at run time; its methods are those of [`RayQueries`], [`BatchQueries`] and
+//! [`Footprint`], at the cost of one indirect call per query.
+
+use std::sync::Arc;
+
+use crate::accel::{Accel, Footprint};
+use crate::batch::BatchOptions;
+use crate::bvh::{AabbTree, BuildError, BuildOptions, QuantizedAabbTree};
+use crate::geom::{Kernel, Ray};
+use crate::hit::Hit;
+use crate::mesh::Mesh;
+use crate::query::{BatchError, BatchQueries, RayQueries};
+
+/// A kind of acceleration structure.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum AccelKind {
+    /// [`AabbTree`]: binary SAH tree, 32-byte nodes.
+    Aabb,
+    /// [`QuantizedAabbTree`]: the same tree with 16-byte quantized nodes.
+    Quantized,
+}
+
+impl AccelKind {
+    /// Every kind, the default first.
+    pub const ALL: [AccelKind; 2] = [AccelKind::Aabb, AccelKind::Quantized];
+
+    /// The fastest exact structure on our measurements (see the README's tables).
+    pub const DEFAULT: AccelKind = AccelKind::Aabb;
+
+    /// The name used on the command line and in tables.
+    pub fn name(self) -> &'static str {
+        match self {
+            AccelKind::Aabb => "aabb",
+            AccelKind::Quantized => "quantized",
+        }
+    }
+
+    /// One line on what the structure is, for help texts.
+    pub fn summary(self) -> &'static str {
+        match self {
+            AccelKind::Aabb => "binary SAH tree, 32-byte nodes",
+            AccelKind::Quantized => "binary SAH tree, 16-byte quantized nodes",
+        }
+    }
+
+    /// The kind called `name` (see [`AccelKind::name`]).
+    pub fn from_name(name: &str) -> Option<Self> {
+        Self::ALL.into_iter().find(|k| k.name() == name)
+    }
+
+    /// Builds the structure over `mesh`.
+    pub fn build(
+        self,
+        mesh: impl Into<Arc<Mesh>>,
+        options: &BuildOptions,
+    ) -> Result<AnyAccel, BuildError> {
+        let mesh = mesh.into();
+        Ok(match self {
+            AccelKind::Aabb => AnyAccel::new(<AabbTree>::build(mesh, options)?),
+            AccelKind::Quantized => AnyAccel::new(QuantizedAabbTree::build(mesh, options)?),
+        })
+    }
+}
+
+/// Any structure, behind one type (see the module docs).
+pub struct AnyAccel {
+    inner: Box<dyn Erased>,
+}
+
+impl AnyAccel {
+    /// Wraps `accel`.
+    pub fn new<A: Accel + Footprint + Send + 'static>(accel: A) -> Self {
+        Self {
+            inner: Box::new(accel),
+        }
+    }
+
+    /// [`RayQueries::cast_ray`].
+    pub fn cast_ray(&self, ray: &Ray) -> Option<Hit> {
+        self.inner.cast_ray_with(ray, Kernel::Watertight)
+    }
+
+    /// [`RayQueries::cast_ray_with`].
+    pub fn cast_ray_with(&self, ray: &Ray, kernel: Kernel) -> Option<Hit> {
+        self.inner.cast_ray_with(ray, kernel)
+    }
+
+    /// [`RayQueries::occluded`].
+    pub fn occluded(&self, ray: &Ray) -> bool {
+        self.inner.occluded_with(ray, Kernel::Watertight)
+    }
+
+    /// [`RayQueries::occluded_with`].
+    pub fn occluded_with(&self, ray: &Ray, kernel: Kernel) -> bool {
+        self.inner.occluded_with(ray, kernel)
+    }
+
+    /// [`RayQueries::for_each_hit`].
+    pub fn for_each_hit(&self, ray: &Ray, mut f: impl FnMut(Hit)) {
+        self.inner.for_each_hit_with(ray, Kernel::Watertight, &mut f)
+    }
+
+    /// [`RayQueries::for_each_hit_with`].
+    pub fn for_each_hit_with(&self, ray: &Ray, kernel: Kernel, mut f: impl FnMut(Hit)) {
+        self.inner.for_each_hit_with(ray, kernel, &mut f)
+    }
+
+    /// [`RayQueries::all_hits`].
+    pub fn all_hits(&self, ray: &Ray) -> Vec<Hit> {
+        let mut hits = Vec::new();
+        self.for_each_hit(ray, |h| hits.push(h));
+        Hit::sort(&mut hits);
+        hits
+    }
+
+    /// [`BatchQueries::cast_rays`].
+    pub fn cast_rays(&self, rays: &[Ray], hits: &mut [Option<Hit>]) -> Result<(), BatchError> {
+        self.cast_rays_with(rays, hits, &BatchOptions::default())
+    }
+
+    /// [`BatchQueries::cast_rays_with`].
+    pub fn cast_rays_with(
+        &self,
+        rays: &[Ray],
+        hits: &mut [Option<Hit>],
+        options: &BatchOptions,
+    ) -> Result<(), BatchError> {
+        self.inner.cast_rays_with(rays, hits, options)
+    }
+
+    /// [`BatchQueries::occluded_batch`].
+    pub fn occluded_batch(&self, rays: &[Ray], occluded: &mut [bool]) -> Result<(), BatchError> {
+        self.occluded_batch_with(rays, occluded, &BatchOptions::default())
+    }
+
+    /// [`BatchQueries::occluded_batch_with`].
+    pub fn occluded_batch_with(
+        &self,
+        rays: &[Ray],
+        occluded: &mut [bool],
+        options: &BatchOptions,
+    ) -> Result<(), BatchError> {
+        self.inner.occluded_batch_with(rays, occluded, options)
+    }
+
+    /// [`BatchQueries::for_each_hit_batch`].
+    pub fn for_each_hit_batch(&self, rays: &[Ray], f: impl Fn(usize, Hit) + Sync) {
+        self.inner
+            .for_each_hit_batch_with(rays, &BatchOptions::default(), &f)
+    }
+
+    /// [`BatchQueries::for_each_hit_batch_with`].
+    pub fn for_each_hit_batch_with(
+        &self,
+        rays: &[Ray],
+        options: &BatchOptions,
+        f: impl Fn(usize, Hit) + Sync,
+    ) {
+        self.inner.for_each_hit_batch_with(rays, options, &f)
+    }
+}
+
+impl Footprint for AnyAccel {
+    fn name(&self) -> &'static str {
+        self.inner.name()
+    }
+    fn triangle_count(&self) -> usize {
+        self.inner.triangle_count()
+    }
+    fn node_count(&self) -> usize {
+        self.inner.node_count()
+    }
+    fn heap_bytes(&self) -> usize {
+        self.inner.heap_bytes()
+    }
+}
+
+impl std::fmt::Debug for AnyAccel {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("AnyAccel")
+            .field("name", &self.name())
+            .field("nodes", &self.node_count())
+            .finish()
+    }
+}
+
+/// The queries without generic parameters, so that they can be called through `dyn`.
+trait Erased: Footprint + Send + Sync {
+    fn cast_ray_with(&self, ray: &Ray, kernel: Kernel) -> Option<Hit>;
+    fn occluded_with(&self, ray: &Ray, kernel: Kernel) -> bool;
+    fn for_each_hit_with(&self, ray: &Ray, kernel: Kernel, f: &mut dyn FnMut(Hit));
+    fn cast_rays_with(
+        &self,
+        rays: &[Ray],
+        hits: &mut [Option<Hit>],
+        options: &BatchOptions,
+    ) -> Result<(), BatchError>;
+    fn occluded_batch_with(
+        &self,
+        rays: &[Ray],
+        occluded: &mut [bool],
+        options: &BatchOptions,
+    ) -> Result<(), BatchError>;
+    fn for_each_hit_batch_with(
+        &self,
+        rays: &[Ray],
+        options: &BatchOptions,
+        f: &(dyn Fn(usize, Hit) + Sync),
+    );
+}
+
+impl<A: Accel + Footprint + Send> Erased for A {
+    fn cast_ray_with(&self, ray: &Ray, kernel: Kernel) -> Option<Hit> {
+        RayQueries::cast_ray_with(self, ray, kernel)
+    }
+    fn occluded_with(&self, ray: &Ray, kernel: Kernel) -> bool {
+        RayQueries::occluded_with(self, ray, kernel)
+    }
+    fn for_each_hit_with(&self, ray: &Ray, kernel: Kernel, f: &mut dyn FnMut(Hit)) {
+        RayQueries::for_each_hit_with(self, ray, kernel, f)
+    }
+    fn cast_rays_with(
+        &self,
+        rays: &[Ray],
+        hits: &mut [Option<Hit>],
+        options: &BatchOptions,
+    ) -> Result<(), BatchError> {
+        BatchQueries::cast_rays_with(self, rays, hits, options)
+    }
+    fn occluded_batch_with(
+        &self,
+        rays: &[Ray],
+        occluded: &mut [bool],
+        options: &BatchOptions,
+    ) -> Result<(), BatchError> {
+        BatchQueries::occluded_batch_with(self, rays, occluded, options)
+    }
+    fn for_each_hit_batch_with(
+        &self,
+        rays: &[Ray],
+        options: &BatchOptions,
+        f: &(dyn Fn(usize, Hit) + Sync),
+    ) {
+        BatchQueries::for_each_hit_batch_with(self, rays, options, f)
+    }
+}

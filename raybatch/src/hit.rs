@@ -1,0 +1,132 @@
+//! What a query finds, the tie rule that makes answers independent of the visiting order, and
+//! the one [`Visitor`] interface through which every structure reports hits.
+//!
+//! **Tie rule.** When several triangles are hit at the same `t` (a ray through a shared edge or
+//! vertex, or coplanar overlapping triangles), the closest hit is the one with the **lowest
+//! triangle id**. Every structure, ordering, kernel, batch size and thread count follows it, so
+//! answers never depend on the order in which a structure visits its triangles. For that,
+//! traversal keeps boxes whose entry distance *equals* the current best `t` (they may hold an
+//! equal-`t` triangle with a lower id), and a hit replaces the best one when `(t, id)` is
+//! lexicographically smaller ([`Hit::is_before`]).
+
+/// A ray's hit on a triangle: `p = origin + t * dir = (1 - u - v) * v0 + u * v1 + v * v2`,
+/// where `v0, v1, v2` are the corners of triangle `triangle` in the order the mesh lists them.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Hit {
+    /// Distance along the ray, in units of its direction (`tmin <= t <= tmax`).
+    pub t: f32,
+    /// Triangle id: its index in the mesh's triangle array.
+    pub triangle: u32,
+    /// Barycentric weight of the triangle's second corner.
+    pub u: f32,
+    /// Barycentric weight of the triangle's third corner.
+    pub v: f32,
+}
+
+impl Hit {
+    /// The tie rule: smaller `t` wins, and on equal `t` the lower triangle id.
+    #[inline(always)]
+    pub fn is_before(&self, other: &Hit) -> bool {
+        self.t < other.t || (self.t == other.t && self.triangle < other.triangle)
+    }
+
+    /// Sorts hits by `t`, then triangle id (the order `all_hits` returns).
+    pub fn sort(hits: &mut [Hit]) {
+        hits.sort_by(|a, b| a.t.total_cmp(&b.t).then(a.triangle.cmp(&b.triangle)));
+    }
+
+    /// The "no hit yet" placeholder of a closest-hit search over `[.., tmax]`: any real hit at
+    /// `t <= tmax` is before it (its triangle id is `u32::MAX`, which no mesh uses).
+    pub const fn none_before(tmax: f32) -> Hit {
+        Hit {
+            t: tmax,
+            triangle: NO_TRIANGLE,
+            u: 0.0,
+            v: 0.0,
+        }
+    }
+
+    /// `Some(self)` unless this is a [`Hit::none_before`] placeholder.
+    pub fn found(self) -> Option<Hit> {
+        (self.triangle != NO_TRIANGLE).then_some(self)
+    }
+}
+
+/// The triangle id that marks "no hit" (meshes hold fewer triangles, see
+/// [`crate::mesh::MAX_TRIANGLES`]).
+const NO_TRIANGLE: u32 = u32::MAX;
+
+/// What a query does with each hit. Structures call it for every triangle hit in a ray's
+/// current range; the query decides what to keep.
+///
+/// `ray` is the ray's index in the batch (0 for a single-ray query). `tmax` is the ray's current
+/// range end, owned by the structure: a visitor shrinks it to make the structure skip what lies
+/// behind (a closest-hit search sets it to the best `t`), or sets it to `-inf` to end the ray (an
+/// any-hit search, or "first N hits"), after which the structure reports nothing more for it.
+/// Hits are reported in no particular order; a visitor must not depend on it.
+pub trait Visitor {
+    /// Called for each hit of ray `ray` with `hit.t <= *tmax`.
+    fn visit(&mut self, ray: u32, hit: Hit, tmax: &mut f32);
+}
+
+/// The value of `tmax` that ends a ray (see [`Visitor`]).
+pub const RAY_DONE: f32 = f32::NEG_INFINITY;
+
+/// Keeps each ray's closest hit by the tie rule.
+pub struct Closest<'a> {
+    /// Best hit so far per ray, [`Hit::none_before`] until one is found.
+    pub best: &'a mut [Hit],
+}
+
+impl Visitor for Closest<'_> {
+    #[inline(always)]
+    fn visit(&mut self, ray: u32, hit: Hit, tmax: &mut f32) {
+        // `tmax` is always the best `t` so far and structures only report `t <= tmax`, so a
+        // strictly smaller `t` wins without reading the best hit (a cache miss in a batch of a
+        // million rays); only a tie needs the best hit's id.
+        let best = &mut self.best[ray as usize];
+        if hit.t < *tmax || hit.is_before(best) {
+            *best = hit;
+            *tmax = hit.t;
+        }
+    }
+}
+
+/// Marks a ray occluded at its first hit and ends it.
+pub struct Any<'a> {
+    /// Per ray: has anything been hit.
+    pub occluded: &'a mut [bool],
+}
+
+impl Visitor for Any<'_> {
+    #[inline(always)]
+    fn visit(&mut self, ray: u32, _: Hit, tmax: &mut f32) {
+        self.occluded[ray as usize] = true;
+        *tmax = RAY_DONE;
+    }
+}
+
+/// Reports every hit to `f(offset + ray, hit)`.
+pub struct Every<'a, F> {
+    /// Added to the ray index (the position of this chunk in the caller's batch).
+    pub offset: usize,
+    /// The caller's callback.
+    pub f: &'a F,
+}
+
+impl<F: Fn(usize, Hit)> Visitor for Every<'_, F> {
+    #[inline(always)]
+    fn visit(&mut self, ray: u32, hit: Hit, _: &mut f32) {
+        (self.f)(self.offset + ray as usize, hit);
+    }
+}
+
+/// Reports every hit of a single ray to an `FnMut`.
+pub struct EachHit<F>(pub F);
+
+impl<F: FnMut(Hit)> Visitor for EachHit<F> {
+    #[inline(always)]
+    fn visit(&mut self, _: u32, hit: Hit, _: &mut f32) {
+        (self.0)(hit)
+    }
+}

@@ -1,0 +1,210 @@
+//! A batch at a time: [`BatchQueries`], for every [`Accel`].
+//!
+//! A call splits the batch into chunks ([`crate::batch::chunks`], over rayon's current pool:
+//! wrap a call in `ThreadPool::install` to choose the thread count). Each chunk runs with its
+//! thread's workspace: its rays are validated, prepared and grouped by octant into lanes
+//! ([`crate::batch::group`]), and each group goes to [`Accel::trace_stream`] as one
+//! [`RayStream`]. Steady-state calls allocate nothing and threads share nothing. Batches smaller
+//! than [`BatchOptions::min_batch`] go through the single-ray path.
+//!
+//! Answers equal the single-ray answers bit for bit (see [`crate::query`]): the structures
+//! report the same hits with the same kernels, and the visitors ([`crate::hit`]) keep them by
+//! the tie rule, so neither the visiting order nor the grouping can change an outcome.
+
+use crate::accel::{Accel, RayStream};
+use crate::batch::chunks::for_each_chunk;
+use crate::batch::group::{self, Groups};
+use crate::batch::lanes::Lanes;
+use crate::batch::options::BatchOptions;
+use crate::batch::partition::Partitioner;
+use crate::batch::scratch::BatchScratch;
+use crate::geom::{Kernel, MollerTrumbore, Ray, Watertight};
+use crate::hit::{Any, Closest, Every, Hit, Visitor};
+use crate::query::single::RayQueries;
+use crate::workspace::Workspace;
+
+/// A batched call whose output slice does not match its input.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum BatchError {
+    /// The output slice's length differs from the number of rays.
+    LengthMismatch {
+        /// Number of rays.
+        rays: usize,
+        /// Length of the output slice.
+        outputs: usize,
+    },
+}
+
+impl std::fmt::Display for BatchError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            BatchError::LengthMismatch { rays, outputs } => write!(
+                f,
+                "output slice has {outputs} entries for {rays} rays; they must be equal"
+            ),
+        }
+    }
+}
+
+impl std::error::Error for BatchError {}
+
+fn check_lengths(rays: usize, outputs: usize) -> Result<(), BatchError> {
+    if rays == outputs {
+        Ok(())
+    } else {
+        Err(BatchError::LengthMismatch { rays, outputs })
+    }
+}
+
+/// The rays of one chunk, prepared into the thread's workspace: the groups, their lanes, the
+/// structure's scratch and the closest-hit answer array.
+struct Chunk<'w, S> {
+    groups: Groups,
+    lanes: &'w mut Lanes,
+    scratch: &'w mut S,
+    best: &'w mut Vec<Hit>,
+}
+
+/// Prepares `rays` in this thread's workspace and runs `f` on them.
+fn with_chunk<A: Accel, R>(
+    rays: &[Ray],
+    options: &BatchOptions,
+    f: impl FnOnce(Chunk<'_, A::Scratch>) -> R,
+) -> R {
+    Workspace::with_local(|workspace| {
+        let (batch, scratch) = workspace.parts::<A::Scratch>();
+        let BatchScratch { lanes, best, keys } = batch;
+        let groups = group::prepare(rays, options.ordering, lanes, keys);
+        f(Chunk {
+            groups,
+            lanes,
+            scratch,
+            best,
+        })
+    })
+}
+
+/// Hands each group of a prepared chunk to [`Accel::trace_stream`].
+fn trace_groups<A: Accel, V: Visitor>(
+    accel: &A,
+    groups: &Groups,
+    lanes: &mut Lanes,
+    scratch: &mut A::Scratch,
+    options: &BatchOptions,
+    partitioner: Partitioner,
+    visitor: &mut V,
+) {
+    for (start, end, octant_mask) in groups.iter() {
+        let mut stream = RayStream::new(lanes, start, end, octant_mask, partitioner, options);
+        // Rays of a group have different dominant axes, so the watertight kernel dispatches per
+        // ray (`Watertight` calls the same `WatertightAxis` function as the single-ray path).
+        match options.kernel {
+            Kernel::Watertight => accel.trace_stream::<Watertight, V>(&mut stream, scratch, visitor),
+            Kernel::MollerTrumbore => {
+                accel.trace_stream::<MollerTrumbore, V>(&mut stream, scratch, visitor)
+            }
+        }
+    }
+}
+
+/// The batched queries, for every [`Accel`]. Output slices must be as long as `rays`.
+pub trait BatchQueries: Accel {
+    /// Closest hit of every ray (`hits[i]` for `rays[i]`), identical to
+    /// [`RayQueries::cast_ray`] on each ray.
+    fn cast_rays(&self, rays: &[Ray], hits: &mut [Option<Hit>]) -> Result<(), BatchError> {
+        self.cast_rays_with(rays, hits, &BatchOptions::default())
+    }
+
+    /// [`BatchQueries::cast_rays`] with options.
+    fn cast_rays_with(
+        &self,
+        rays: &[Ray],
+        hits: &mut [Option<Hit>],
+        options: &BatchOptions,
+    ) -> Result<(), BatchError> {
+        check_lengths(rays.len(), hits.len())?;
+        if rays.len() < options.min_batch {
+            for (ray, hit) in rays.iter().zip(hits.iter_mut()) {
+                *hit = self.cast_ray_with(ray, options.kernel);
+            }
+            return Ok(());
+        }
+        let partitioner = options.partition.checked();
+        for_each_chunk(rays, hits, options, |_, rays, hits| {
+            with_chunk::<Self, _>(rays, options, |c| {
+                c.best.clear();
+                c.best.extend(rays.iter().map(|r| Hit::none_before(r.tmax)));
+                let mut closest = Closest { best: c.best };
+                trace_groups(self, &c.groups, c.lanes, c.scratch, options, partitioner, &mut closest);
+                for (out, best) in hits.iter_mut().zip(c.best.iter()) {
+                    *out = best.found();
+                }
+            })
+        });
+        Ok(())
+    }
+
+    /// Occlusion of every ray (`occluded[i]` for `rays[i]`), identical to
+    /// [`RayQueries::occluded`]. A ray is retired from the batch at its first hit.
+    fn occluded_batch(&self, rays: &[Ray], occluded: &mut [bool]) -> Result<(), BatchError> {
+        self.occluded_batch_with(rays, occluded, &BatchOptions::default())
+    }
+
+    /// [`BatchQueries::occluded_batch`] with options.
+    fn occluded_batch_with(
+        &self,
+        rays: &[Ray],
+        occluded: &mut [bool],
+        options: &BatchOptions,
+    ) -> Result<(), BatchError> {
+        check_lengths(rays.len(), occluded.len())?;
+        if rays.len() < options.min_batch {
+            for (ray, out) in rays.iter().zip(occluded.iter_mut()) {
+                *out = self.occluded_with(ray, options.kernel);
+            }
+            return Ok(());
+        }
+        let partitioner = options.partition.checked();
+        for_each_chunk(rays, occluded, options, |_, rays, occluded| {
+            occluded.fill(false);
+            with_chunk::<Self, _>(rays, options, |c| {
+                let mut any = Any { occluded };
+                trace_groups(self, &c.groups, c.lanes, c.scratch, options, partitioner, &mut any);
+            })
+        });
+        Ok(())
+    }
+
+    /// Calls `f(i, hit)` for every hit of every ray `rays[i]`, in no particular order and
+    /// possibly from several threads at once; the set of calls equals
+    /// [`RayQueries::for_each_hit`] on each ray.
+    fn for_each_hit_batch(&self, rays: &[Ray], f: impl Fn(usize, Hit) + Sync) {
+        self.for_each_hit_batch_with(rays, &BatchOptions::default(), f)
+    }
+
+    /// [`BatchQueries::for_each_hit_batch`] with options.
+    fn for_each_hit_batch_with(
+        &self,
+        rays: &[Ray],
+        options: &BatchOptions,
+        f: impl Fn(usize, Hit) + Sync,
+    ) {
+        if rays.len() < options.min_batch {
+            for (i, ray) in rays.iter().enumerate() {
+                self.for_each_hit_with(ray, options.kernel, |h| f(i, h));
+            }
+            return;
+        }
+        let partitioner = options.partition.checked();
+        // No output slice: chunks are matched with zero-sized slots.
+        let mut slots = vec![(); rays.len()];
+        for_each_chunk(rays, &mut slots, options, |offset, rays, _| {
+            with_chunk::<Self, _>(rays, options, |c| {
+                let mut every = Every { offset, f: &f };
+                trace_groups(self, &c.groups, c.lanes, c.scratch, options, partitioner, &mut every);
+            })
+        });
+    }
+}
+
+impl<A: Accel> BatchQueries for A {}

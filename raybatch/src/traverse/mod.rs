@@ -1,0 +1,40 @@
+//! The two traversals of a binary BVH, written once against [`Bvh`], which make every `Bvh` an
+//! [`Accel`]:
+//!
+//! - [`single`]: one ray at a time, depth first, nearer child first (the reference);
+//! - [`dispatch`]: that loop compiled for the baseline CPU and with AVX2, picked at run time;
+//! - [`stream`]: a stream of rays going down the tree once, partitioned at each node (seed 001).
+
+#[allow(unsafe_code)]
+pub(crate) mod dispatch;
+pub(crate) mod single;
+pub(crate) mod stream;
+
+use crate::accel::{Accel, RayStream};
+use crate::bvh::{Bvh, BvhScratch};
+use crate::geom::{PreparedRay, TriangleTest};
+use crate::hit::Visitor;
+
+impl<B: Bvh> Accel for B {
+    type Scratch = BvhScratch<B::Cache>;
+
+    #[inline]
+    fn trace<K: TriangleTest, V: Visitor>(
+        &self,
+        ray: &PreparedRay,
+        id: u32,
+        scratch: &mut Self::Scratch,
+        visitor: &mut V,
+    ) -> f32 {
+        dispatch::trace::<B, K, V>(self, ray, id, scratch, visitor)
+    }
+
+    fn trace_stream<K: TriangleTest, V: Visitor>(
+        &self,
+        stream: &mut RayStream<'_>,
+        scratch: &mut Self::Scratch,
+        visitor: &mut V,
+    ) {
+        stream::trace_stream::<B, K, V>(self, stream, scratch, visitor)
+    }
+}

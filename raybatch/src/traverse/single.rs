@@ -1,0 +1,156 @@
+//! The single-ray loop over a [`Bvh`]: the reference every other engine must match bit for bit.
+//!
+//! Depth first, with an explicit stack from the thread's scratch (sized from [`Bvh::depth`] on
+//! first use, never cleared or zeroed per ray). At an internal node both children's boxes are
+//! read once ([`Bvh::child_bounds`]) and tested; if both are touched, the one the precomputed
+//! ordering byte names as nearer is visited now and the other is pushed with its entry distance,
+//! so that a later pop can drop it without reading it again when the best hit has moved in front
+//! of it, and a pop that keeps it reads only its contents, not its box. Entry distances are
+//! compared with `<=`: a box entered exactly at the best `t` may still hold an equal-`t`
+//! triangle with a lower id (the tie rule of [`crate::hit`]).
+
+use glam::Vec3;
+
+use crate::bvh::ordering::second_child_first;
+use crate::bvh::{Bvh, BvhScratch, Node};
+use crate::geom::{PreparedRay, TriangleTest};
+use crate::hit::{Hit, RAY_DONE, Visitor};
+
+/// Traces `ray` (number `id`) through the whole tree; returns the final range end.
+#[inline(always)]
+pub(crate) fn trace<B, K, V>(
+    tree: &B,
+    ray: &PreparedRay,
+    id: u32,
+    scratch: &mut BvhScratch<B::Cache>,
+    visitor: &mut V,
+) -> f32
+where
+    B: Bvh + ?Sized,
+    K: TriangleTest,
+    V: Visitor,
+{
+    let mut tmax = ray.tmax;
+    if tree.node_count() == 0 || !tree.bounds(0, &mut scratch.cache).hit_by(ray, tmax) {
+        return tmax;
+    }
+    trace_below::<B, K, V>(tree, ray, id, 0, &mut tmax, scratch, visitor);
+    tmax
+}
+
+/// The traversal loop, starting at node `start`, whose box the ray is known to touch, with the
+/// ray's current range end `tmax`. The batched engine calls it to finish a subtree for the few
+/// rays that reach it.
+#[inline(always)]
+pub(crate) fn trace_below<B, K, V>(
+    tree: &B,
+    ray: &PreparedRay,
+    id: u32,
+    start: u32,
+    tmax: &mut f32,
+    scratch: &mut BvhScratch<B::Cache>,
+    visitor: &mut V,
+) where
+    B: Bvh + ?Sized,
+    K: TriangleTest,
+    V: Visitor,
+{
+    let BvhScratch { stack, cache, .. } = scratch;
+    stack.clear();
+    stack.reserve(tree.depth() + 1);
+    let mut index = start;
+    loop {
+        let node = tree.node(index);
+        if test_node_triangles::<B, K, V>(tree, &node, ray, id, tmax, visitor) {
+            return;
+        }
+        if node.has_children() {
+            let c = node.first_child;
+            let [first, second] = tree.child_bounds(c, cache);
+            let ((near, near_box), (far, far_box)) =
+                if second_child_first(node.order, ray.octant_mask) {
+                    ((c + 1, second), (c, first))
+                } else {
+                    ((c, first), (c + 1, second))
+                };
+            let near_entry = near_box.entry(ray, *tmax);
+            let far_entry = far_box.entry(ray, *tmax);
+            match (near_entry < f32::INFINITY, far_entry < f32::INFINITY) {
+                (true, true) => {
+                    stack.push((far, far_entry));
+                    index = near;
+                    continue;
+                }
+                (true, false) => {
+                    index = near;
+                    continue;
+                }
+                (false, true) => {
+                    index = far;
+                    continue;
+                }
+                (false, false) => {}
+            }
+        }
+        // Pop the next pending node that is still in front of the best hit.
+        loop {
+            let Some((pending, entry)) = stack.pop() else {
+                return;
+            };
+            if entry <= *tmax {
+                index = pending;
+                break;
+            }
+        }
+    }
+}
+
+/// Tests a node's triangles; true if the visitor ended the ray.
+#[inline(always)]
+fn test_node_triangles<B, K, V>(
+    tree: &B,
+    node: &Node,
+    ray: &PreparedRay,
+    id: u32,
+    tmax: &mut f32,
+    visitor: &mut V,
+) -> bool
+where
+    B: Bvh + ?Sized,
+    K: TriangleTest,
+    V: Visitor,
+{
+    let triangles = (node.first..node.first + node.count).map(|slot| tree.triangle(slot));
+    test_triangles::<K, V>(ray, id, triangles, tmax, visitor)
+}
+
+/// Tests one ray against `(id, corners)` triangles, reporting hits to `visitor`; true if the
+/// visitor ended the ray. Shared by the single-ray loop and the batched leaves.
+#[inline(always)]
+pub(crate) fn test_triangles<K, V>(
+    ray: &PreparedRay,
+    id: u32,
+    triangles: impl IntoIterator<Item = (u32, [Vec3; 3])>,
+    tmax: &mut f32,
+    visitor: &mut V,
+) -> bool
+where
+    K: TriangleTest,
+    V: Visitor,
+{
+    for (triangle, corners) in triangles {
+        if let Some(h) = K::intersect(ray, &corners, *tmax) {
+            let hit = Hit {
+                t: h.t,
+                triangle,
+                u: h.u,
+                v: h.v,
+            };
+            visitor.visit(id, hit, tmax);
+            if *tmax == RAY_DONE {
+                return true;
+            }
+        }
+    }
+    false
+}

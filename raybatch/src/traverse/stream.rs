@@ -1,0 +1,124 @@
+//! A stream of rays down the tree, once (seed 001).
+//!
+//! An explicit stack holds `(node, count)`: rays `0..count` of the stream are the ones that
+//! reached the node's parent. At each node the box is read (or dequantized, or recomputed) once,
+//! tested against all of them, and the ones that touch it are moved to the front
+//! ([`RayStream::partition`]); only that prefix goes on to the node's triangles and children.
+//! Each triangle is loaded once and tested against every surviving ray. A child's partition only
+//! reorders the prefix it was given, so when the second child is popped the prefix still holds
+//! the same set of rays.
+//!
+//! All rays of a stream grouped by octant share the octant, so the node's ordering byte applies
+//! to the whole stream. The kernel `K` is the very function the single-ray path runs: results
+//! are bit-identical.
+
+use glam::Vec3;
+
+use super::single::{test_triangles, trace_below};
+use crate::accel::RayStream;
+use crate::bvh::ordering::second_child_first;
+use crate::bvh::{Bvh, BvhScratch, Node};
+use crate::geom::TriangleTest;
+use crate::hit::Visitor;
+
+/// Runs every ray of `stream` through the tree.
+pub(crate) fn trace_stream<B, K, V>(
+    tree: &B,
+    stream: &mut RayStream<'_>,
+    scratch: &mut BvhScratch<B::Cache>,
+    visitor: &mut V,
+) where
+    B: Bvh,
+    K: TriangleTest,
+    V: Visitor,
+{
+    if tree.node_count() == 0 || stream.is_empty() {
+        return;
+    }
+    let single_ray_below = stream.options().single_ray_below;
+    let mut pending = std::mem::take(&mut scratch.stream_stack);
+    pending.clear();
+    pending.push((0, stream.len() as u32));
+    while let Some((index, count)) = pending.pop() {
+        let bounds = tree.bounds(index, &mut scratch.cache);
+        let active = stream.partition(count as usize, &bounds);
+        if active == 0 {
+            continue;
+        }
+        if active < single_ray_below {
+            finish_one_by_one::<B, K, V>(tree, stream, active, index, scratch, visitor);
+            continue;
+        }
+        let node = tree.node(index);
+        test_leaf::<B, K, V>(tree, stream, active, &node, visitor);
+        if node.has_children() {
+            let c = node.first_child;
+            let (near, far) = if second_child_first(node.order, stream.octant_mask()) {
+                (c + 1, c)
+            } else {
+                (c, c + 1)
+            };
+            pending.push((far, active as u32));
+            pending.push((near, active as u32));
+        }
+    }
+    scratch.stream_stack = pending;
+}
+
+/// Most triangles a leaf pass keeps at once; larger triangle ranges go in several passes.
+const LEAF_BATCH: usize = 16;
+
+/// Tests the node's triangles against rays `0..active`. Each triangle is fetched once (up to
+/// [`LEAF_BATCH`] at a time) for all rays, and each ray is rebuilt from its lane once for all
+/// those triangles.
+fn test_leaf<B, K, V>(
+    tree: &B,
+    stream: &mut RayStream<'_>,
+    active: usize,
+    node: &Node,
+    visitor: &mut V,
+) where
+    B: Bvh,
+    K: TriangleTest,
+    V: Visitor,
+{
+    let mut fetched = [(0u32, [Vec3::ZERO; 3]); LEAF_BATCH];
+    let end = node.first + node.count;
+    for first in (node.first..end).step_by(LEAF_BATCH) {
+        let count = (end - first).min(LEAF_BATCH as u32) as usize;
+        for (k, slot) in (first..).take(count).enumerate() {
+            fetched[k] = tree.triangle(slot);
+        }
+        for i in 0..active {
+            let ray = stream.ray(i);
+            let mut tmax = ray.tmax;
+            let triangles = fetched[..count].iter().copied();
+            test_triangles::<K, V>(&ray, stream.id(i), triangles, &mut tmax, visitor);
+            stream.set_tmax(i, tmax);
+        }
+    }
+}
+
+/// Finishes the subtree under node `index` (whose box rays `0..active` touch) one ray at a
+/// time: when only a few rays are left, the per-node cost of the stream (partition, stack)
+/// outweighs what they share. The single-ray loop with each ray's current range gives the same
+/// answers (they do not depend on the visiting order).
+fn finish_one_by_one<B, K, V>(
+    tree: &B,
+    stream: &mut RayStream<'_>,
+    active: usize,
+    index: u32,
+    scratch: &mut BvhScratch<B::Cache>,
+    visitor: &mut V,
+) where
+    B: Bvh,
+    K: TriangleTest,
+    V: Visitor,
+{
+    for i in 0..active {
+        let ray = stream.ray(i);
+        let mut tmax = ray.tmax;
+        trace_below::<B, K, V>(tree, &ray, stream.id(i), index, &mut tmax, scratch, visitor);
+        stream.set_tmax(i, tmax);
+    }
+}

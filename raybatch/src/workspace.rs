@@ -1,0 +1,84 @@
+//! Per-thread working memory: the batched engine's arrays and each structure's scratch
+//! ([`crate::accel::Accel::Scratch`]: traversal stacks, box caches), in one place.
+//!
+//! Queries run with the calling thread's workspace ([`Workspace::with_local`]), so a thread
+//! that answers many queries allocates on its first ones only, and threads never share one.
+//! Each structure type gets one scratch value per thread, found by type: every tree of one
+//! type that a thread queries shares it (a box cache must therefore tag its entries by tree).
+//! A query issued from inside another one's callback on the same thread gets a fresh workspace.
+
+use std::any::Any;
+use std::cell::RefCell;
+
+use crate::batch::scratch::BatchScratch;
+
+/// The working memory of the queries run on one thread.
+#[derive(Default)]
+pub struct Workspace {
+    /// The batched engine's lanes and answer arrays.
+    pub(crate) batch: BatchScratch,
+    /// One scratch value per structure type, looked up by type (few entries: a linear scan).
+    scratch: Vec<Box<dyn Any + Send>>,
+}
+
+thread_local! {
+    static LOCAL: RefCell<Workspace> = RefCell::new(Workspace::default());
+}
+
+impl Workspace {
+    /// An empty workspace (it grows on first use).
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// Runs `f` with this thread's workspace (or a fresh one if a query is already using it,
+    /// which happens when a hit callback issues another query).
+    pub fn with_local<R>(f: impl FnOnce(&mut Workspace) -> R) -> R {
+        LOCAL.with(|cell| match cell.try_borrow_mut() {
+            Ok(mut workspace) => f(&mut workspace),
+            Err(_) => f(&mut Workspace::default()),
+        })
+    }
+
+    /// The scratch value of type `S`, created on first use.
+    pub fn scratch<S: Default + Send + 'static>(&mut self) -> &mut S {
+        self.parts::<S>().1
+    }
+
+    /// The batched engine's arrays and the scratch of type `S`, both at once.
+    pub(crate) fn parts<S: Default + Send + 'static>(&mut self) -> (&mut BatchScratch, &mut S) {
+        let index = match self.scratch.iter().position(|s| s.is::<S>()) {
+            Some(index) => index,
+            None => {
+                self.scratch.push(Box::new(S::default()));
+                self.scratch.len() - 1
+            }
+        };
+        let scratch = self.scratch[index]
+            .downcast_mut::<S>()
+            .unwrap_or_else(|| unreachable!("the entry was found or created with type S"));
+        (&mut self.batch, scratch)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn one_scratch_per_type_kept_between_calls() {
+        let mut w = Workspace::new();
+        w.scratch::<Vec<u32>>().push(7);
+        *w.scratch::<u64>() = 3;
+        assert_eq!(w.scratch::<Vec<u32>>(), &[7]);
+        assert_eq!(*w.scratch::<u64>(), 3);
+    }
+
+    #[test]
+    fn reentrant_use_gets_a_fresh_workspace() {
+        Workspace::with_local(|outer| {
+            outer.scratch::<Vec<u8>>().push(1);
+            Workspace::with_local(|inner| assert!(inner.scratch::<Vec<u8>>().is_empty()));
+        });
+    }
+}

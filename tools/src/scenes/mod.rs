@@ -1,0 +1,138 @@
+//! The built-in benchmark scenes and ray sets of `raybatch bench`.
+//!
+//! Three scenes with different shapes of difficulty: a scanned object (the Stanford bunny:
+//! small, dense, closed), a 1M-triangle terrain (huge, flat, thin boxes) and a procedural city
+//! (many separate boxes, lots of empty space). [`rays`] generates the ray sets to shoot at them.
+//! Everything is deterministic: the same seed gives the same scene and rays on every machine
+//! (see [`rng`] for why that needs our own generator).
+
+mod city;
+pub mod rays;
+pub mod rng;
+mod terrain;
+
+pub use rays::{RaySet, generate};
+pub use rng::SplitMix64;
+
+use crate::mesh::Mesh;
+
+/// A named mesh and what kind of scene it is.
+#[derive(Clone, Debug)]
+pub struct Scene {
+    pub name: &'static str,
+    pub mesh: Mesh,
+    pub kind: SceneKind,
+}
+
+/// The broad shape of a scene, which decides where cameras and line-of-sight endpoints go.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum SceneKind {
+    /// A single object seen from around it.
+    Object,
+    /// A heightfield seen from above; sightlines just above its surface.
+    Terrain,
+    /// Buildings on a ground plane; sightlines between pedestrians in the streets.
+    City,
+}
+
+/// Cells per side of the built-in terrain: `2 * 708^2 = 1,002,528` triangles, about a million.
+pub const BUILTIN_TERRAIN_CELLS: u32 = 708;
+/// Blocks per side of the built-in city: about 100k triangles.
+pub const BUILTIN_CITY_BLOCKS: u32 = 48;
+
+/// Fixed seeds: the scenes are part of the benchmark's definition, not a parameter of it.
+const TERRAIN_SEED: u64 = 0x7e44_a1b0;
+const CITY_SEED: u64 = 0xc1_7e5;
+
+/// The Stanford bunny (69,451 triangles), embedded in the binary.
+pub fn bunny() -> Scene {
+    let text = include_str!("../../../data/stanford-bunny.obj");
+    Scene {
+        name: "bunny",
+        // The file ships with the crate and a unit test parses it, so this cannot fail.
+        mesh: Mesh::from_obj_str(text).expect("the embedded bunny is a valid OBJ file"),
+        kind: SceneKind::Object,
+    }
+}
+
+/// A rolling heightfield over `[0, 1000]^2` in `x`, `z` with hills up to 100 units high:
+/// `2 * n^2` triangles for `n = cells_per_side` (at least 1).
+///
+/// Panics above 65,534 cells per side (the vertices would not fit 32-bit indices).
+pub fn terrain(cells_per_side: u32) -> Scene {
+    Scene {
+        name: "terrain",
+        mesh: terrain::mesh(cells_per_side, TERRAIN_SEED),
+        kind: SceneKind::Terrain,
+    }
+}
+
+/// A city of `blocks_per_side^2` blocks of box buildings separated by 20-unit streets, on a
+/// ground quad; 100 units per block, about 43 triangles per block on average.
+pub fn city(blocks_per_side: u32) -> Scene {
+    Scene {
+        name: "city",
+        mesh: city::mesh(blocks_per_side, CITY_SEED),
+        kind: SceneKind::City,
+    }
+}
+
+/// The scenes `raybatch bench` runs: the bunny, the 1M-triangle terrain and the city.
+pub fn builtin() -> Vec<Scene> {
+    vec![
+        bunny(),
+        terrain(BUILTIN_TERRAIN_CELLS),
+        city(BUILTIN_CITY_BLOCKS),
+    ]
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn bunny_parses_with_every_triangle() {
+        let b = bunny();
+        assert_eq!(b.mesh.triangle_count(), 69_451);
+        assert_eq!(b.kind, SceneKind::Object);
+        let bounds = b.mesh.bounds();
+        assert!(!bounds.is_empty() && bounds.extent().min_element() > 0.0);
+    }
+
+    #[test]
+    fn scenes_are_deterministic() {
+        assert_eq!(terrain(20).mesh, terrain(20).mesh);
+        assert_eq!(city(5).mesh, city(5).mesh);
+    }
+
+    #[test]
+    fn small_scenes_have_the_documented_sizes() {
+        assert_eq!(terrain(10).mesh.triangle_count(), 200);
+        let c = city(3).mesh;
+        assert_eq!((c.triangle_count() - 2) % 12, 0);
+    }
+
+    // About a second in a debug build: run with `cargo test --release` (or `--ignored`).
+    #[test]
+    #[cfg_attr(
+        debug_assertions,
+        ignore = "builds a million triangles; run in release"
+    )]
+    fn builtin_scenes_have_their_sizes() {
+        let scenes = builtin();
+        let names: Vec<_> = scenes.iter().map(|s| s.name).collect();
+        assert_eq!(names, ["bunny", "terrain", "city"]);
+        assert_eq!(scenes[1].mesh.triangle_count(), 1_002_528);
+        let city_triangles = scenes[2].mesh.triangle_count();
+        assert!(
+            (50_000..=200_000).contains(&city_triangles),
+            "{city_triangles}"
+        );
+        let t = scenes[1].mesh.bounds();
+        assert_eq!(
+            (t.min.x, t.min.z, t.max.x, t.max.z),
+            (0.0, 0.0, 1000.0, 1000.0)
+        );
+        assert!(t.min.y >= 0.0 && t.max.y <= 100.0);
+    }
+}
