@@ -103,7 +103,8 @@ impl AnyAccel {
 
     /// [`RayQueries::for_each_hit`].
     pub fn for_each_hit(&self, ray: &Ray, mut f: impl FnMut(Hit)) {
-        self.inner.for_each_hit_with(ray, Kernel::Watertight, &mut f)
+        self.inner
+            .for_each_hit_with(ray, Kernel::Watertight, &mut f)
     }
 
     /// [`RayQueries::for_each_hit_with`].

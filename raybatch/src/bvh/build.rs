@@ -61,21 +61,25 @@ impl Default for BuildOptions {
 }
 
 impl BuildOptions {
+    /// With [`BuildOptions::max_leaf_size`].
     pub fn with_leaf_size(mut self, max_leaf_size: u32) -> Self {
         self.max_leaf_size = max_leaf_size;
         self
     }
 
+    /// With [`BuildOptions::ordering`].
     pub fn with_ordering(mut self, ordering: ChildOrdering) -> Self {
         self.ordering = ordering;
         self
     }
 
+    /// With [`BuildOptions::parallel`].
     pub fn with_parallel(mut self, parallel: bool) -> Self {
         self.parallel = parallel;
         self
     }
 
+    /// With [`BuildOptions::leaf_corners`].
     pub fn with_leaf_corners(mut self, leaf_corners: bool) -> Self {
         self.leaf_corners = leaf_corners;
         self
@@ -89,8 +93,11 @@ pub enum BuildError {
     BadLeafSize(u32),
     /// The mesh needs more nodes or triangle slots than the node format can address.
     TooLarge {
+        /// The node format.
         format: &'static str,
+        /// Nodes or triangle slots the mesh needs.
         needed: usize,
+        /// The most the format can address.
         max: usize,
     },
 }
@@ -118,11 +125,13 @@ impl std::error::Error for BuildError {}
 /// A node of the built tree, before it is packed into a node format.
 #[derive(Clone, Copy, Debug)]
 pub struct BuiltNode {
+    /// Box of everything below the node.
     pub bounds: Aabb,
     /// Index of the first child (the second is right after it); 0 for a leaf.
     pub first_child: u32,
     /// Leaf triangles: slots `first..first + count` of [`BuiltTree::triangle_order`].
     pub first: u32,
+    /// Number of leaf triangles (0 for an internal node).
     pub count: u32,
     /// Child ordering byte (see [`super::ordering`]).
     pub order: u8,
@@ -131,8 +140,11 @@ pub struct BuiltNode {
 /// The built tree: nodes in pair layout and the triangle ids in leaf order.
 #[derive(Clone, Debug, Default)]
 pub struct BuiltTree {
+    /// Nodes, root first, children in adjacent pairs.
     pub nodes: Vec<BuiltNode>,
+    /// Triangle ids in leaf-slot order.
     pub triangle_order: Vec<u32>,
+    /// Longest root-to-leaf path, in nodes.
     pub depth: usize,
 }
 

@@ -34,12 +34,14 @@ pub enum ChildOrdering {
 }
 
 impl ChildOrdering {
+    /// Every ordering.
     pub const ALL: [ChildOrdering; 3] = [
         ChildOrdering::Fixed,
         ChildOrdering::SplitAxis,
         ChildOrdering::Pns,
     ];
 
+    /// Short name for tables.
     pub fn name(self) -> &'static str {
         match self {
             ChildOrdering::Fixed => "fixed",

@@ -21,7 +21,9 @@ pub(crate) const EXIT_SCALE: f32 = 1.000_000_4;
 /// An axis-aligned box. Empty boxes have `min > max` (see [`Aabb::EMPTY`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Aabb {
+    /// Smallest corner.
     pub min: Vec3,
+    /// Largest corner.
     pub max: Vec3,
 }
 
@@ -38,6 +40,7 @@ impl Aabb {
         max: Vec3::splat(f32::NEG_INFINITY),
     };
 
+    /// The box with corners `min` and `max`.
     pub fn new(min: Vec3, max: Vec3) -> Self {
         Self { min, max }
     }
@@ -57,14 +60,17 @@ impl Aabb {
         Self::new(self.min.min(other.min), self.max.max(other.max))
     }
 
+    /// True if the box holds no point (`min > max` on some axis).
     pub fn is_empty(&self) -> bool {
         self.min.cmpgt(self.max).any()
     }
 
+    /// `max - min`.
     pub fn extent(&self) -> Vec3 {
         self.max - self.min
     }
 
+    /// The middle point.
     pub fn center(&self) -> Vec3 {
         (self.min + self.max) * 0.5
     }

@@ -133,11 +133,15 @@ pub fn octant(dir: Vec3) -> u32 {
 /// agree on which ray they test.
 #[derive(Clone, Copy, Debug)]
 pub struct PreparedRay {
+    /// The ray's origin.
     pub origin: Vec3,
+    /// The direction, subnormal components flushed to (signed) zero.
     pub dir: Vec3,
     /// `1 / dir`, `+-inf` on zero components (see [`crate::geom::aabb`] for why that is safe).
     pub inv_dir: Vec3,
+    /// Smallest accepted `t`.
     pub tmin: f32,
+    /// Largest accepted `t` (the current range end during traversal).
     pub tmax: f32,
     /// `1 << octant(dir)`: ANDed with a node's ordering byte to pick the child visited first.
     pub octant_mask: u8,

@@ -27,8 +27,11 @@ use super::ray::PreparedRay;
 /// Where a ray meets one triangle: `p = (1 - u - v) * v0 + u * v1 + v * v2 = origin + t * dir`.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct TriangleHit {
+    /// Distance along the ray.
     pub t: f32,
+    /// Barycentric weight of the second corner.
     pub u: f32,
+    /// Barycentric weight of the third corner.
     pub v: f32,
 }
 
@@ -49,8 +52,10 @@ pub enum Kernel {
 }
 
 impl Kernel {
+    /// Every kernel.
     pub const ALL: [Kernel; 2] = [Kernel::Watertight, Kernel::MollerTrumbore];
 
+    /// Short name for tables and the command line.
     pub fn name(self) -> &'static str {
         match self {
             Kernel::Watertight => "watertight",
@@ -61,7 +66,9 @@ impl Kernel {
 
 /// Work to run with a kernel chosen at compile time (see [`Kernel::dispatch`]).
 pub trait KernelTask {
+    /// What the task returns.
     type Output;
+    /// Runs the task with kernel `K`.
     fn run<K: TriangleTest>(self) -> Self::Output;
 }
 

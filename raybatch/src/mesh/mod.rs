@@ -36,22 +36,46 @@ pub struct Mesh {
 pub enum MeshError {
     /// A triangle refers to a vertex that does not exist.
     IndexOutOfRange {
+        /// The triangle's id.
         triangle: usize,
+        /// The vertex index it holds.
         index: u32,
+        /// Vertices in the mesh.
         vertex_count: usize,
     },
     /// A vertex has a NaN or infinite coordinate.
-    NonFiniteVertex { vertex: usize },
+    NonFiniteVertex {
+        /// The vertex's index.
+        vertex: usize,
+    },
     /// A vertex coordinate exceeds [`MAX_COORDINATE`] in magnitude.
-    CoordinateTooLarge { vertex: usize },
+    CoordinateTooLarge {
+        /// The vertex's index.
+        vertex: usize,
+    },
     /// More triangles than [`MAX_TRIANGLES`].
-    TooManyTriangles { count: usize, max: usize },
+    TooManyTriangles {
+        /// Triangles given.
+        count: usize,
+        /// The most supported.
+        max: usize,
+    },
     /// More vertices than 32-bit indices can address.
-    TooManyVertices { count: usize, max: usize },
+    TooManyVertices {
+        /// Vertices given.
+        count: usize,
+        /// The most supported.
+        max: usize,
+    },
     /// The OBJ text is malformed (the error names the line).
     Obj(ObjError),
     /// The file could not be read.
-    Io { path: String, message: String },
+    Io {
+        /// The file.
+        path: String,
+        /// What the system said.
+        message: String,
+    },
 }
 
 impl std::fmt::Display for MeshError {
@@ -121,18 +145,22 @@ impl Mesh {
         Self::from_obj_str(&text)
     }
 
+    /// The vertex positions.
     pub fn vertices(&self) -> &[Vec3] {
         &self.vertices
     }
 
+    /// The triangles, three vertex indices each; a triangle's id is its index here.
     pub fn triangles(&self) -> &[[u32; 3]] {
         &self.triangles
     }
 
+    /// Number of triangles (degenerate ones included).
     pub fn triangle_count(&self) -> usize {
         self.triangles.len()
     }
 
+    /// True if the mesh has no triangle.
     pub fn is_empty(&self) -> bool {
         self.triangles.is_empty()
     }

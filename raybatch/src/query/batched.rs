@@ -99,7 +99,9 @@ fn trace_groups<A: Accel, V: Visitor>(
         // Rays of a group have different dominant axes, so the watertight kernel dispatches per
         // ray (`Watertight` calls the same `WatertightAxis` function as the single-ray path).
         match options.kernel {
-            Kernel::Watertight => accel.trace_stream::<Watertight, V>(&mut stream, scratch, visitor),
+            Kernel::Watertight => {
+                accel.trace_stream::<Watertight, V>(&mut stream, scratch, visitor)
+            }
             Kernel::MollerTrumbore => {
                 accel.trace_stream::<MollerTrumbore, V>(&mut stream, scratch, visitor)
             }
@@ -135,7 +137,15 @@ pub trait BatchQueries: Accel {
                 c.best.clear();
                 c.best.extend(rays.iter().map(|r| Hit::none_before(r.tmax)));
                 let mut closest = Closest { best: c.best };
-                trace_groups(self, &c.groups, c.lanes, c.scratch, options, partitioner, &mut closest);
+                trace_groups(
+                    self,
+                    &c.groups,
+                    c.lanes,
+                    c.scratch,
+                    options,
+                    partitioner,
+                    &mut closest,
+                );
                 for (out, best) in hits.iter_mut().zip(c.best.iter()) {
                     *out = best.found();
                 }
@@ -169,7 +179,15 @@ pub trait BatchQueries: Accel {
             occluded.fill(false);
             with_chunk::<Self, _>(rays, options, |c| {
                 let mut any = Any { occluded };
-                trace_groups(self, &c.groups, c.lanes, c.scratch, options, partitioner, &mut any);
+                trace_groups(
+                    self,
+                    &c.groups,
+                    c.lanes,
+                    c.scratch,
+                    options,
+                    partitioner,
+                    &mut any,
+                );
             })
         });
         Ok(())
@@ -201,7 +219,15 @@ pub trait BatchQueries: Accel {
         for_each_chunk(rays, &mut slots, options, |offset, rays, _| {
             with_chunk::<Self, _>(rays, options, |c| {
                 let mut every = Every { offset, f: &f };
-                trace_groups(self, &c.groups, c.lanes, c.scratch, options, partitioner, &mut every);
+                trace_groups(
+                    self,
+                    &c.groups,
+                    c.lanes,
+                    c.scratch,
+                    options,
+                    partitioner,
+                    &mut every,
+                );
             })
         });
     }

@@ -5,8 +5,8 @@
 //! tie rule (see [`crate::query`]).
 
 use crate::geom::{Kernel, MollerTrumbore, PreparedRay, Ray, TriangleTest, Watertight};
-use crate::mesh::Mesh;
 use crate::hit::Hit;
+use crate::mesh::Mesh;
 
 /// The closest hit over all triangles, lowest id on equal `t`.
 pub fn cast_ray(mesh: &Mesh, ray: &Ray, kernel: Kernel) -> Option<Hit> {

@@ -8,8 +8,8 @@ use std::arch::x86_64::*;
 
 use super::EXIT_SCALE;
 use super::portable::{Cursors, partition_lanes};
-use crate::geom::Aabb;
 use crate::batch::lanes::{COLUMNS, IX, Lanes, OX, SPARE_PADDING, TMAX};
+use crate::geom::Aabb;
 
 /// For each 8-bit mask, the indices of its set bits in increasing order (then zeros).
 static COMPRESS: [[u32; 8]; 256] = compress_table();
@@ -35,7 +35,12 @@ const fn compress_table() -> [[u32; 8]; 256] {
 ///
 /// # Safety
 /// The CPU must support AVX2 (checked once per batched call, see [`super::Partitioner`]).
-pub(crate) unsafe fn partition(lanes: &mut Lanes, bounds: &Aabb, start: usize, end: usize) -> usize {
+pub(crate) unsafe fn partition(
+    lanes: &mut Lanes,
+    bounds: &Aabb,
+    start: usize,
+    end: usize,
+) -> usize {
     assert!(start <= end && end <= lanes.len());
     assert!(
         lanes

@@ -7,14 +7,19 @@ use std::arch::x86_64::*;
 
 use super::EXIT_SCALE;
 use super::portable::Cursors;
-use crate::geom::Aabb;
 use crate::batch::lanes::{COLUMNS, IX, Lanes, OX, TMAX};
+use crate::geom::Aabb;
 
 /// Entry point: checks the range and spare sizes the vector code relies on.
 ///
 /// # Safety
 /// The CPU must support AVX-512F (checked once per batched call, see [`super::Partitioner`]).
-pub(crate) unsafe fn partition(lanes: &mut Lanes, bounds: &Aabb, start: usize, end: usize) -> usize {
+pub(crate) unsafe fn partition(
+    lanes: &mut Lanes,
+    bounds: &Aabb,
+    start: usize,
+    end: usize,
+) -> usize {
     assert!(start <= end && end <= lanes.len());
     assert!(lanes.spare.iter().all(|s| s.len() >= end - start));
     // SAFETY: AVX-512F is available (the caller's contract), and the range and spare sizes the

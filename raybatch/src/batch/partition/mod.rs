@@ -119,6 +119,7 @@ mod tests {
     use crate::geom::{PreparedRay, Ray};
     use crate::test_support::TestRng;
     use glam::Vec3;
+    use std::io::Write;
 
     fn random_lanes(n: usize, seed: u32) -> (Lanes, Vec<PreparedRay>) {
         let mut lanes = Lanes::default();
@@ -155,8 +156,10 @@ mod tests {
     fn every_kernel_matches_the_single_ray_test_and_each_other() {
         for k in PartitionKernel::ALL {
             if !k.is_supported() {
-                eprintln!(
-                    "this CPU lacks {}: its test compares the portable kernel with itself",
+                // Written to stderr directly so the test harness shows it even on success.
+                let _ = writeln!(
+                    std::io::stderr(),
+                    "note: this CPU lacks {}: its test compares the portable kernel with itself",
                     k.name()
                 );
             }

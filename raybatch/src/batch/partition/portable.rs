@@ -1,8 +1,8 @@
 //! The portable partition: one ray per step, safe code, branch-free.
 
 use super::EXIT_SCALE;
-use crate::geom::Aabb;
 use crate::batch::lanes::{COLUMNS, IX, IY, IZ, Lanes, OX, OY, OZ, TMAX};
+use crate::geom::Aabb;
 
 /// The slab test of one ray (see [`crate::geom::aabb::box_entry`]); a NaN slab (an axis the
 /// ray grazes) fails both comparisons and leaves the range alone.
