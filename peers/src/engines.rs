@@ -10,10 +10,7 @@ use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use raybatch::glam::Vec3A;
-use raybatch::tree::aabb_tree::NodeFormat;
-use raybatch::{
-    AabbTree, BatchOptions, BatchQueries, BuildOptions, Bvh, Hit, Mesh, Ray, RayQueries,
-};
+use raybatch::{AccelKind, BatchOptions, BuildOptions, Footprint, Hit, Mesh, Ray};
 
 use crate::embree_ffi as rtc;
 
@@ -27,7 +24,8 @@ pub struct PeerHit {
 
 /// One library/configuration over one ray set.
 pub struct Run {
-    pub engine: &'static str,
+    /// The row's name: `Embree rtcIntersect1`, `raybatch aabb`, `obvhs CwBvh`, ...
+    pub engine: String,
     /// Structure and settings, for the table.
     pub structure: String,
     pub build: Duration,
@@ -132,17 +130,22 @@ fn progress(what: &str, build: Duration, query: Duration, rays: usize) {
 // raybatch
 // ---------------------------------------------------------------------------------------------
 
-/// `AabbTree<N>::build` (single-threaded: `parallel = false`, other options default) and
-/// `RayQueries::cast_ray` (watertight kernel).
-/// With `any_hit`, also `RayQueries::occluded`.
-pub fn raybatch<N: NodeFormat>(
+/// The row name of raybatch's structure `kind`: `raybatch aabb`, `raybatch quantized`, ...
+pub fn raybatch_engine(kind: AccelKind) -> String {
+    format!("raybatch {}", kind.name())
+}
+
+/// `AccelKind::build` (single-threaded: `parallel = false`, other options default) and
+/// `cast_ray` (watertight kernel). With `any_hit`, also `occluded`.
+pub fn raybatch(
+    kind: AccelKind,
     mesh: &Arc<Mesh>,
     rays: &[Ray],
     runs: usize,
     any_hit: bool,
 ) -> Result<Run, String> {
     let options = BuildOptions::default().with_parallel(false);
-    let (build, tree) = best_of(runs, || AabbTree::<N>::build(Arc::clone(mesh), &options));
+    let (build, tree) = best_of(runs, || kind.build(Arc::clone(mesh), &options));
     let tree = tree.map_err(|e| format!("raybatch build: {e}"))?;
     let (query, hits) = time_queries(runs, rays, |r| {
         tree.cast_ray(r).map(|h| PeerHit {
@@ -151,25 +154,17 @@ pub fn raybatch<N: NodeFormat>(
         })
     });
     let structure = format!(
-        "{} tree, SAH, leaf <= {}, {:?} ordering, {:.1} B/tri",
-        tree.name(),
+        "{}, leaf <= {}, {:?} ordering, {:.1} B/tri",
+        kind.summary(),
         options.max_leaf_size,
         options.ordering,
         tree.bytes_per_triangle()
     );
-    progress(
-        &format!("raybatch {}", tree.name()),
-        build,
-        query,
-        rays.len(),
-    );
+    let engine = raybatch_engine(kind);
+    progress(&engine, build, query, rays.len());
     let any_hit = any_hit.then(|| time_any_hit(runs, rays, "occluded", |r| tree.occluded(r)));
     Ok(Run {
-        engine: if tree.name() == "aabb" {
-            "raybatch AabbTree"
-        } else {
-            "raybatch QuantizedAabbTree"
-        },
+        engine,
         structure,
         build,
         query,
@@ -181,14 +176,15 @@ pub fn raybatch<N: NodeFormat>(
 /// The batched engine on the same tree: the whole ray array in one `cast_rays_with` call on one
 /// thread (`parallel = false`, other options default). With `any_hit`, also
 /// `occluded_batch_with`.
-pub fn raybatch_batched<N: NodeFormat>(
+pub fn raybatch_batched(
+    kind: AccelKind,
     mesh: &Arc<Mesh>,
     rays: &[Ray],
     runs: usize,
     any_hit: bool,
 ) -> Result<Run, String> {
     let options = BuildOptions::default().with_parallel(false);
-    let (build, tree) = best_of(runs, || AabbTree::<N>::build(Arc::clone(mesh), &options));
+    let (build, tree) = best_of(runs, || kind.build(Arc::clone(mesh), &options));
     let tree = tree.map_err(|e| format!("raybatch build: {e}"))?;
     let batch = BatchOptions::default().with_parallel(false);
     let mut out: Vec<Option<Hit>> = vec![None; rays.len()];
@@ -205,12 +201,8 @@ pub fn raybatch_batched<N: NodeFormat>(
             })
         })
         .collect();
-    progress(
-        &format!("raybatch {} batched", tree.name()),
-        build,
-        query,
-        rays.len(),
-    );
+    let engine = format!("{} batched", raybatch_engine(kind));
+    progress(&engine, build, query, rays.len());
     let any_hit = any_hit.then(|| {
         let mut occluded = vec![false; rays.len()];
         let (query, ()) = best_of(runs, || {
@@ -229,11 +221,7 @@ pub fn raybatch_batched<N: NodeFormat>(
         }
     });
     Ok(Run {
-        engine: if tree.name() == "aabb" {
-            "raybatch AabbTree batched"
-        } else {
-            "raybatch QuantizedAabbTree batched"
-        },
+        engine,
         structure: format!(
             "same tree, whole array per call, one thread, {:?} batch ordering, {} partition",
             batch.ordering,
@@ -309,7 +297,7 @@ pub fn embree(
     };
     Ok([
         Run {
-            engine: "Embree rtcIntersect1",
+            engine: "Embree rtcIntersect1".to_string(),
             structure: structure("1 ray per call"),
             build,
             query: query1,
@@ -317,7 +305,7 @@ pub fn embree(
             any_hit,
         },
         Run {
-            engine: "Embree rtcIntersect1M",
+            engine: "Embree rtcIntersect1M".to_string(),
             structure: structure("whole array per call (stream)"),
             build,
             query: query_m,
@@ -387,7 +375,7 @@ pub fn obvhs_cwbvh(mesh: &Mesh, rays: &[Ray], runs: usize, any_hit: bool) -> Run
         })
     });
     Run {
-        engine: "obvhs CwBvh",
+        engine: "obvhs CwBvh".to_string(),
         structure: format!(
             "medium_build (PLOC, reinsertion), <= {} prims/leaf, {} nodes",
             params.max_prims_per_leaf.clamp(1, 3),
@@ -429,7 +417,7 @@ pub fn obvhs_bvh2(mesh: &Mesh, rays: &[Ray], runs: usize, any_hit: bool) -> Run 
         })
     });
     Run {
-        engine: "obvhs Bvh2",
+        engine: "obvhs Bvh2".to_string(),
         structure: format!(
             "medium_build (PLOC, reinsertion, leaf collapse), <= {} prims/leaf, {} nodes",
             params.max_prims_per_leaf,
@@ -484,7 +472,7 @@ pub fn parry(mesh: &Mesh, rays: &[Ray], runs: usize, any_hit: bool) -> Result<Ru
         })
     });
     Ok(Run {
-        engine: "parry3d TriMesh",
+        engine: "parry3d TriMesh".to_string(),
         structure: "TriMesh::new (its BVH), cast_local_ray_and_get_normal, solid = false".into(),
         build,
         query,
@@ -498,7 +486,7 @@ mod tests {
     use super::*;
     use crate::compare::compare;
     use raybatch::glam::Vec3;
-    use raybatch::scenes::{RaySet, SceneKind, generate};
+    use raybatch_tools::scenes::{RaySet, SceneKind, generate};
 
     /// A closed box (12 triangles) and incoherent rays from inside it: every ray hits, away
     /// from edges with probability 1, so every library must agree.
@@ -529,14 +517,16 @@ mod tests {
         let mesh = Arc::new(Mesh::new(corners, triangles).unwrap());
         let rays = generate(RaySet::Incoherent, &mesh, SceneKind::Object, 2000, 3);
 
-        let reference =
-            raybatch::<raybatch::tree::full_nodes::FullNodes>(&mesh, &rays, 1, true).unwrap();
+        let reference = raybatch(AccelKind::DEFAULT, &mesh, &rays, 1, true).unwrap();
         assert!(reference.hits.iter().all(Option::is_some));
         let device = rtc::Device::new("threads=1").unwrap();
-        let mut runs = vec![
-            raybatch::<raybatch::tree::quantized_nodes::QuantizedNodes>(&mesh, &rays, 1, true)
-                .unwrap(),
-        ];
+        let mut runs = Vec::new();
+        for kind in AccelKind::ALL {
+            if kind != AccelKind::DEFAULT {
+                runs.push(raybatch(kind, &mesh, &rays, 1, true).unwrap());
+            }
+            runs.push(raybatch_batched(kind, &mesh, &rays, 1, true).unwrap());
+        }
         runs.extend(embree(&device, &mesh, &rays, 1, true).unwrap());
         runs.push(obvhs_cwbvh(&mesh, &rays, 1, true));
         runs.push(obvhs_bvh2(&mesh, &rays, 1, true));

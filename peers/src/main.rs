@@ -1,9 +1,11 @@
 //! `peers`: the same mesh and rays through raybatch, Embree 3, obvhs and parry3d, in one run.
 //!
 //! Every library builds its structure single-threaded and casts every ray single-threaded
-//! (closest hit), best of `--runs` passes each. The hits are checked against raybatch's
-//! `AabbTree::cast_ray` and a Markdown table of build time, query time, Mrays/s and the speed
-//! relative to Embree's `rtcIntersect1` goes to stdout; progress goes to stderr.
+//! (closest hit), best of `--runs` passes each; raybatch runs every structure of
+//! `AccelKind::ALL`, per ray and batched. The hits are checked against raybatch's default
+//! structure (`AccelKind::DEFAULT`, `cast_ray`) and a Markdown table of build time, query time,
+//! Mrays/s and the speed relative to Embree's `rtcIntersect1` goes to stdout; progress goes to
+//! stderr.
 //!
 //! ```text
 //! bash peers/setup.sh && cargo run --release -p raybatch-peers -- --rays 1000000
@@ -13,9 +15,7 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 use std::sync::Arc;
 
-use raybatch::tree::full_nodes::FullNodes;
-use raybatch::tree::quantized_nodes::QuantizedNodes;
-use raybatch::{Mesh, Ray};
+use raybatch::{AccelKind, Mesh, Ray};
 
 use raybatch_peers::compare::{T_TOLERANCE, compare};
 use raybatch_peers::engines::{self, Run};
@@ -27,7 +27,7 @@ usage: peers [--mesh FILE.obj] [--rays N] [--sets A,B,..] [--seed S] [--runs R]
   --mesh FILE.obj  triangle mesh, treated as one object (default: data/stanford-bunny.obj of
                    the raybatch crate)
   --rays N         rays per set (default 1000000; underscores allowed)
-  --sets A,B,..    ray sets of raybatch::scenes (default incoherent,outside-in,line-of-sight;
+  --sets A,B,..    ray sets of raybatch_tools::scenes (default incoherent,outside-in,line-of-sight;
                    also camera, short); line-of-sight also times any-hit queries
   --seed S         ray seed (default 1)
   --runs R         timed passes per build and per query, best kept (default 3)";
@@ -140,16 +140,18 @@ fn run(args: &Args) -> Result<(), String> {
         }
     }
     println!(
-        "Disagreements are against `raybatch AabbTree` (`cast_ray`, watertight kernel): \
+        "Disagreements are against `{}` (`cast_ray`, watertight kernel): \
          hit/miss = one hits and the other misses (peer misses / peer extra hits); \
          t = both hit but |dt| > {T_TOLERANCE:e} * max(1, t); triangle = same t but another \
          triangle (a tie on a shared edge or vertex; each library breaks ties its own way). \
-         Speed vs Embree = Mrays/s over Embree rtcIntersect1's (> 1 is faster)."
+         Speed vs Embree = Mrays/s over Embree rtcIntersect1's (> 1 is faster).",
+        engines::raybatch_engine(AccelKind::DEFAULT)
     );
     Ok(())
 }
 
-/// Every library on one ray set; the reference (raybatch full nodes) first.
+/// Every library on one ray set; the reference (raybatch's default structure, per ray) first,
+/// then raybatch's other structures per ray, then every structure batched, then the peers.
 fn run_all(
     device: &embree_ffi::Device,
     mesh: &Arc<Mesh>,
@@ -157,16 +159,15 @@ fn run_all(
     runs: usize,
     any_hit: bool,
 ) -> Result<Vec<Run>, String> {
-    let mut out = vec![engines::raybatch::<FullNodes>(mesh, rays, runs, any_hit)?];
-    out.push(engines::raybatch::<QuantizedNodes>(
-        mesh, rays, runs, any_hit,
-    )?);
-    out.push(engines::raybatch_batched::<FullNodes>(
-        mesh, rays, runs, any_hit,
-    )?);
-    out.push(engines::raybatch_batched::<QuantizedNodes>(
-        mesh, rays, runs, any_hit,
-    )?);
+    let reference = AccelKind::DEFAULT;
+    let others = AccelKind::ALL.into_iter().filter(|&k| k != reference);
+    let mut out = Vec::new();
+    for kind in std::iter::once(reference).chain(others) {
+        out.push(engines::raybatch(kind, mesh, rays, runs, any_hit)?);
+    }
+    for kind in AccelKind::ALL {
+        out.push(engines::raybatch_batched(kind, mesh, rays, runs, any_hit)?);
+    }
     out.extend(engines::embree(device, mesh, rays, runs, any_hit)?);
     out.push(engines::obvhs_cwbvh(mesh, rays, runs, any_hit));
     out.push(engines::obvhs_bvh2(mesh, rays, runs, any_hit));
@@ -176,7 +177,7 @@ fn run_all(
 
 /// Table rows in print order: Embree first, then raybatch, then the other peers.
 fn print_order(runs: &[Run]) -> Vec<&Run> {
-    let rank = |r: &Run| match r.engine {
+    let rank = |r: &Run| match r.engine.as_str() {
         e if e.starts_with("Embree") => 0,
         e if e.starts_with("raybatch") => 1,
         _ => 2,

@@ -1,14 +1,14 @@
 //! The ray sets every library is run on: raybatch's own benchmark sets
-//! ([`raybatch::scenes::rays::generate`]), so peers and `raybatch bench` shoot the same rays.
+//! ([`raybatch_tools::scenes::rays::generate`]), so peers and `raybatch bench` shoot the same rays.
 //!
 //! [`ray_sets`] is the one entry point: it returns named sets of `raybatch::Ray`s, which each
 //! library then converts to its own ray type outside the timed loop.
 
 use raybatch::Mesh;
 use raybatch::Ray;
-use raybatch::scenes::{self, SceneKind};
+use raybatch_tools::scenes::{self, SceneKind};
 
-pub use raybatch::scenes::RaySet as SetKind;
+pub use raybatch_tools::scenes::RaySet as SetKind;
 
 /// The sets compared by default.
 pub const DEFAULT_SETS: [SetKind; 3] = [

@@ -2,26 +2,31 @@
 //!
 //! Flags are `--name value` or bare switches; every flag may be given once. Anything unknown is
 //! a usage error. Paths stay `OsString`s so that non-UTF-8 file names work.
+//!
+//! The structures `--tree` accepts, and how the help and usage texts list them, come from
+//! [`AccelKind::ALL`]: a structure added to the library shows up here without an edit.
 
 use std::ffi::OsString;
 use std::path::PathBuf;
 use std::str::FromStr;
 
-use raybatch::Kernel;
-use raybatch::tree::build::MAX_LEAF_SIZE;
+use raybatch::bvh::build::MAX_LEAF_SIZE;
+use raybatch::{AccelKind, Kernel};
 
 use crate::bench::SCENE_NAMES;
 use crate::error::CliError;
 use crate::runner::QueryKind;
 
 /// The full `--help` text.
-pub const HELP: &str = "\
+pub fn help() -> String {
+    format!(
+        "\
 raybatch - batches of ray queries against triangle meshes
 
 Usage:
   raybatch bench [--mesh FILE.obj | --scenes LIST] [--rays N] [--leaf N] [--quick]
   raybatch query --mesh MESH.obj --rays RAYS.bin --kind closest|any --out HITS.bin
-                 [--tree aabb|quantized] [--kernel watertight|moller-trumbore]
+                 [--tree {trees}] [--kernel watertight|moller-trumbore]
                  [--leaf N] [--batched] [--threads N]
   raybatch --help
 
@@ -46,7 +51,8 @@ prints one JSON line of statistics on stderr.
                       (a miss is t = +inf, triangle = 4294967295, u = v = 0)
                     any: 1 byte per ray: 1 if anything is hit in [tmin, tmax], else 0
   --out HITS.bin    the output, written only if everything succeeded
-  --tree TREE       aabb (32-byte nodes, the default) or quantized (16-byte nodes)
+  --tree TREE       the structure to build (default: {default}):
+{tree_list}
   --kernel KERNEL   watertight (the default, exact on shared edges) or moller-trumbore
   --leaf N          largest leaf size, 1 to 16 (default 4)
   --batched         answer the rays as one batch (same answers, usually faster) instead
@@ -55,16 +61,45 @@ prints one JSON line of statistics on stderr.
                     rayon's default, one per core, for --batched)
 
 Exit codes: 0 success, 1 bad input or output file, 2 bad command line.
-";
+",
+        trees = tree_names().join("|"),
+        default = AccelKind::DEFAULT.name(),
+        tree_list = tree_list(),
+    )
+}
 
 /// Usage lines of `bench`, shown with usage errors.
 pub const BENCH_USAGE: &str =
     "usage: raybatch bench [--mesh FILE.obj | --scenes LIST] [--rays N] [--leaf N] [--quick]";
 
 /// Usage lines of `query`, shown with usage errors.
-pub const QUERY_USAGE: &str = "usage: raybatch query --mesh MESH.obj --rays RAYS.bin \
---kind closest|any --out HITS.bin [--tree aabb|quantized] \
-[--kernel watertight|moller-trumbore] [--leaf N] [--batched] [--threads N]";
+pub fn query_usage() -> String {
+    format!(
+        "usage: raybatch query --mesh MESH.obj --rays RAYS.bin \
+--kind closest|any --out HITS.bin [--tree {}] \
+[--kernel watertight|moller-trumbore] [--leaf N] [--batched] [--threads N]",
+        tree_names().join("|")
+    )
+}
+
+/// The names of every structure, in [`AccelKind::ALL`] order.
+fn tree_names() -> Vec<&'static str> {
+    AccelKind::ALL.into_iter().map(AccelKind::name).collect()
+}
+
+/// One help line per structure: its name and summary, indented under `--tree`.
+fn tree_list() -> String {
+    let width = AccelKind::ALL
+        .iter()
+        .map(|k| k.name().len())
+        .max()
+        .unwrap_or(0);
+    let lines: Vec<String> = AccelKind::ALL
+        .into_iter()
+        .map(|k| format!("                      {:width$}  {}", k.name(), k.summary()))
+        .collect();
+    lines.join("\n")
+}
 
 /// Usage line of the tool as a whole.
 pub const TOP_USAGE: &str = "usage: raybatch bench|query [FLAGS] (see raybatch --help)";
@@ -93,24 +128,6 @@ pub struct BenchArgs {
     pub quick: bool,
 }
 
-/// Which node format to build.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum TreeKind {
-    /// `AabbTree`, full 32-byte nodes.
-    Full,
-    /// `QuantizedAabbTree`, 16-byte nodes.
-    Quantized,
-}
-
-impl TreeKind {
-    pub fn name(self) -> &'static str {
-        match self {
-            TreeKind::Full => "aabb",
-            TreeKind::Quantized => "quantized",
-        }
-    }
-}
-
 /// Flags of `raybatch query`.
 #[derive(Debug)]
 pub struct QueryArgs {
@@ -118,7 +135,8 @@ pub struct QueryArgs {
     pub rays: PathBuf,
     pub kind: QueryKind,
     pub out: PathBuf,
-    pub tree: TreeKind,
+    /// The structure to build.
+    pub tree: AccelKind,
     pub kernel: Kernel,
     pub leaf: u32,
     /// Use the batched engine instead of the per-ray one.
@@ -188,7 +206,7 @@ fn parse_query(cursor: &mut Cursor) -> Result<QueryArgs, CliError> {
         rays: required(rays, "--rays")?,
         kind: required(kind, "--kind")?,
         out: required(out, "--out")?,
-        tree: tree.unwrap_or(TreeKind::Full),
+        tree: tree.unwrap_or(AccelKind::DEFAULT),
         kernel: kernel.unwrap_or_default(),
         leaf: leaf.unwrap_or(DEFAULT_LEAF),
         batched: batched.unwrap_or(false),
@@ -308,15 +326,22 @@ fn query_kind(text: &str) -> Result<QueryKind, CliError> {
     })
 }
 
-fn tree_kind(text: &str) -> Result<TreeKind, CliError> {
-    [TreeKind::Full, TreeKind::Quantized]
-        .into_iter()
-        .find(|t| t.name() == text)
-        .ok_or_else(|| {
-            CliError::usage(format!(
-                "unknown --tree '{text}' (expected aabb or quantized)"
-            ))
-        })
+fn tree_kind(text: &str) -> Result<AccelKind, CliError> {
+    AccelKind::from_name(text).ok_or_else(|| {
+        CliError::usage(format!(
+            "unknown --tree '{text}' (expected {})",
+            one_of(&tree_names())
+        ))
+    })
+}
+
+/// `a`, `a or b`, `a, b or c`: the choices of an error message.
+fn one_of(names: &[&str]) -> String {
+    match names {
+        [] => String::new(),
+        [only] => only.to_string(),
+        [rest @ .., last] => format!("{} or {last}", rest.join(", ")),
+    }
 }
 
 fn kernel_named(text: &str) -> Result<Kernel, CliError> {

@@ -8,16 +8,15 @@
 //! 3. per-ray vs batched on the pns trees ([`compare::batched_section`]);
 //! 4. on the bunny only, the batch size sweep and the partition kernels.
 //!
+//! The trees are every structure of [`AccelKind::ALL`], in that order, and the default tree is
+//! [`AccelKind::DEFAULT`]: a structure added to the library gets its rows with no edit here.
 //! Every timed query is a [`crate::runner::Query`] run by [`crate::workload`].
 
 use std::path::Path;
 use std::sync::Arc;
 
-use raybatch::scenes::{self, RaySet, Scene, SceneKind};
-use raybatch::tree::aabb_tree::NodeFormat;
-use raybatch::tree::full_nodes::FullNodes;
-use raybatch::tree::quantized_nodes::QuantizedNodes;
-use raybatch::{AabbTree, BuildOptions, Bvh, ChildOrdering, Mesh};
+use raybatch::{AccelKind, AnyAccel, BuildOptions, ChildOrdering, Footprint, Mesh};
+use raybatch_tools::scenes::{self, RaySet, Scene, SceneKind};
 
 use crate::args::BenchArgs;
 use crate::compare::{self, BatchedRow, Subject};
@@ -176,8 +175,7 @@ impl SceneRays {
 
 /// Results of one tree and ordering on one scene.
 struct Row {
-    /// The node format's name ([`NodeFormat::NAME`]).
-    tree: &'static str,
+    tree: AccelKind,
     ordering: ChildOrdering,
     build_ms: f64,
     parallel_build_ms: f64,
@@ -223,32 +221,33 @@ impl SceneReport {
 fn bench_scene(scene: &BenchScene, plan: &Plan) -> String {
     let rays = SceneRays::generate(scene, plan);
     let mut report = SceneReport::default();
-    bench_format::<FullNodes>(scene, plan, &rays, &mut report, true);
-    bench_format::<QuantizedNodes>(scene, plan, &rays, &mut report, false);
+    for kind in AccelKind::ALL {
+        bench_kind(kind, scene, plan, &rays, &mut report);
+    }
     report.render(scene, plan)
 }
 
-/// Benchmarks node format `N` with every ordering; the pns tree also gets the batched
-/// comparison, and the extra comparisons if it is the `default` format.
-fn bench_format<N: NodeFormat>(
+/// Benchmarks structure `kind` with every ordering; the pns tree also gets the batched
+/// comparison, and the extra comparisons if `kind` is the default structure.
+fn bench_kind(
+    kind: AccelKind,
     scene: &BenchScene,
     plan: &Plan,
     rays: &SceneRays,
     report: &mut SceneReport,
-    default: bool,
 ) {
     for &ordering in plan.orderings {
-        let (row, tree) = bench_tree::<N>(scene, plan, ordering, rays.for_ordering(ordering));
+        let (row, tree) = bench_tree(kind, scene, plan, ordering, rays.for_ordering(ordering));
         if ordering == ChildOrdering::Pns {
             let subject = Subject {
                 scene: &scene.name,
-                label: format!("{}/{}", N::NAME, ordering.name()),
+                label: format!("{}/{}", kind.name(), ordering.name()),
                 tree: &tree,
             };
             report
                 .batched
                 .extend(compare::batched_rows(&subject, &row.mrays, &rays.all));
-            if default {
+            if kind == AccelKind::DEFAULT {
                 default_tree_extras(&subject, scene, plan, &rays.all, &row, report);
             }
         }
@@ -258,8 +257,8 @@ fn bench_format<N: NodeFormat>(
 
 /// The comparisons run on the default tree only: kernels, and on detailed scenes the batch size
 /// sweep and the partition kernels.
-fn default_tree_extras<T: Bvh>(
-    subject: &Subject<T>,
+fn default_tree_extras(
+    subject: &Subject,
     scene: &BenchScene,
     plan: &Plan,
     rays: &RaySets,
@@ -278,23 +277,25 @@ fn default_tree_extras<T: Bvh>(
 
 /// Builds one tree (single-threaded, then in parallel) and times every column on it, per ray
 /// on one thread; returns its row and the tree.
-fn bench_tree<N: NodeFormat>(
+fn bench_tree(
+    kind: AccelKind,
     scene: &BenchScene,
     plan: &Plan,
     ordering: ChildOrdering,
     rays: &RaySets,
-) -> (Row, AabbTree<N>) {
-    let label = format!("{}: {}/{}", scene.name, N::NAME, ordering.name());
+) -> (Row, AnyAccel) {
+    let label = format!("{}: {}/{}", scene.name, kind.name(), ordering.name());
     progress(&format!("{label}: building ..."));
-    let (tree, build_ms) = build::<N>(&scene.mesh, plan.options(ordering).with_parallel(false));
-    let (_, parallel_build_ms) = build::<N>(&scene.mesh, plan.options(ordering));
+    let options = plan.options(ordering);
+    let (tree, build_ms) = build(kind, &scene.mesh, options.with_parallel(false));
+    let (_, parallel_build_ms) = build(kind, &scene.mesh, options);
     progress(&format!("{label}: querying ..."));
     let mrays = COLUMNS
         .iter()
         .map(|c| speed(&tree, c.query(Engine::PerRay), rays.get(c.set)))
         .collect();
     let row = Row {
-        tree: N::NAME,
+        tree: kind,
         ordering,
         build_ms,
         parallel_build_ms,
@@ -305,22 +306,23 @@ fn bench_tree<N: NodeFormat>(
 }
 
 /// The tree and its build time in milliseconds.
-fn build<N: NodeFormat>(mesh: &Arc<Mesh>, options: BuildOptions) -> (AabbTree<N>, f64) {
-    let (tree, ms) = time_ms(|| AabbTree::<N>::build(Arc::clone(mesh), &options));
-    // Leaf sizes are checked by the parser and every scene fits both node formats.
+fn build(kind: AccelKind, mesh: &Arc<Mesh>, options: BuildOptions) -> (AnyAccel, f64) {
+    let (tree, ms) = time_ms(|| kind.build(Arc::clone(mesh), &options));
+    // Leaf sizes are checked by the parser and every scene fits every structure.
     (tree.expect("the benchmark's trees always build"), ms)
 }
 
 fn heading(scene: &BenchScene, plan: &Plan) -> String {
     format!(
         "### {} ({} triangles)\n\nQueries in Mrays/s, per ray, one thread, best of {PASSES} \
-         passes over {}; leaf size {}. \"vs aabb\" and \"vs fixed\": speed relative to the aabb \
-         tree with the same ordering and to the same tree with the fixed ordering (geometric \
-         mean over the query columns).\n",
+         passes over {}; leaf size {}. \"vs {default}\" and \"vs fixed\": speed relative to the \
+         {default} tree with the same ordering and to the same tree with the fixed ordering \
+         (geometric mean over the query columns).\n",
         scene.name,
         thousands(scene.mesh.triangle_count()),
         ray_counts(plan),
         plan.leaf,
+        default = AccelKind::DEFAULT.name(),
     )
 }
 
@@ -347,7 +349,7 @@ fn results_table(rows: &[Row]) -> Table {
     for c in &COLUMNS {
         table.column(c.title(), Align::Right);
     }
-    table.column("vs aabb", Align::Right);
+    table.column(format!("vs {}", AccelKind::DEFAULT.name()), Align::Right);
     table.column("vs fixed", Align::Right);
     for row in rows {
         table.push(row_cells(row, rows));
@@ -362,14 +364,14 @@ fn row_cells(row: &Row, rows: &[Row]) -> Vec<String> {
     };
     let vs = |base: Option<&Row>| base.map_or("-".to_string(), |b| ratio(speedup(row, b)));
     let mut cells = vec![
-        row.tree.to_string(),
+        row.tree.name().to_string(),
         row.ordering.name().to_string(),
         format!("{:.1}", row.build_ms),
         format!("{:.1}", row.parallel_build_ms),
         format!("{:.1}", row.bytes_per_triangle),
     ];
     cells.extend(row.mrays.iter().map(|m| format!("{m:.2}")));
-    cells.push(vs(find(FullNodes::NAME, row.ordering)));
+    cells.push(vs(find(AccelKind::DEFAULT, row.ordering)));
     cells.push(vs(find(row.tree, ChildOrdering::Fixed)));
     cells
 }

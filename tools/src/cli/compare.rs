@@ -6,8 +6,7 @@
 //! per-ray speeds of the per-ray vs batched table and of the sweep are taken from the main table
 //! (the same queries); the one-line comparisons time both sides back to back.
 
-use raybatch::query::batch::PartitionKernel;
-use raybatch::{BatchOrdering, Bvh, Kernel, Ray};
+use raybatch::{AnyAccel, BatchOrdering, Kernel, PartitionKernel, Ray};
 
 use crate::bench::progress;
 use crate::runner::{Engine, Query, QueryKind};
@@ -59,14 +58,14 @@ impl BatchedRow {
 }
 
 /// A tree under test, and how progress and captions name it.
-pub struct Subject<'a, T> {
+pub struct Subject<'a> {
     pub scene: &'a str,
     /// `aabb/pns`, ...
     pub label: String,
-    pub tree: &'a T,
+    pub tree: &'a AnyAccel,
 }
 
-impl<T> Subject<'_, T> {
+impl Subject<'_> {
     fn progress(&self, what: &str) {
         progress(&format!("{}: {}: {what} ...", self.scene, self.label));
     }
@@ -74,11 +73,7 @@ impl<T> Subject<'_, T> {
 
 /// Times the batched engine on every column of [`COLUMNS`]; `per_ray` holds the per-ray
 /// speeds of the same tree, one per column.
-pub fn batched_rows<T: Bvh>(
-    subject: &Subject<T>,
-    per_ray: &[f64],
-    rays: &RaySets,
-) -> Vec<BatchedRow> {
+pub fn batched_rows(subject: &Subject, per_ray: &[f64], rays: &RaySets) -> Vec<BatchedRow> {
     subject.progress("batched queries");
     COLUMNS
         .iter()
@@ -88,12 +83,7 @@ pub fn batched_rows<T: Bvh>(
 }
 
 /// The row of `column`: both orderings on one thread, then the faster on [`THREADS`].
-fn batched_row<T: Bvh>(
-    subject: &Subject<T>,
-    column: Column,
-    per_ray: f64,
-    rays: &[Ray],
-) -> BatchedRow {
+fn batched_row(subject: &Subject, column: Column, per_ray: f64, rays: &[Ray]) -> BatchedRow {
     let tree = subject.tree;
     let batched = |ordering| column.query(Engine::batched(ordering));
     let by_octant = speed(tree, batched(BatchOrdering::ByOctant), rays);
@@ -146,12 +136,7 @@ fn sweep_sizes(sizes: &[usize], n: usize) -> Vec<usize> {
 
 /// The batch size sweep: batched closest hits on one thread over `rays` cut into consecutive
 /// batches of each size, against the per-ray speed (which does not depend on the batch size).
-pub fn batch_size_sweep<T: Bvh>(
-    subject: &Subject<T>,
-    rays: &[Ray],
-    per_ray: f64,
-    sizes: &[usize],
-) -> String {
+pub fn batch_size_sweep(subject: &Subject, rays: &[Ray], per_ray: f64, sizes: &[usize]) -> String {
     subject.progress("batch size sweep");
     let query = batched_closest(BatchOrdering::ByOctant, PartitionKernel::detect());
     let mut table = Table::default();
@@ -177,7 +162,7 @@ pub fn batch_size_sweep<T: Bvh>(
 }
 
 /// One line comparing the partition kernels for batched closest hits on one thread.
-pub fn compare_partitions<T: Bvh>(subject: &Subject<T>, rays: &[Ray]) -> String {
+pub fn compare_partitions(subject: &Subject, rays: &[Ray]) -> String {
     subject.progress("comparing partition kernels");
     let (detected, portable) = (PartitionKernel::detect(), PartitionKernel::Portable);
     let speed_of = |partition| {
@@ -198,7 +183,7 @@ pub fn compare_partitions<T: Bvh>(subject: &Subject<T>, rays: &[Ray]) -> String 
 }
 
 /// One line comparing the triangle kernels for per-ray closest hits on one thread.
-pub fn compare_kernels<T: Bvh>(subject: &Subject<T>, rays: &[Ray]) -> String {
+pub fn compare_kernels(subject: &Subject, rays: &[Ray]) -> String {
     subject.progress("comparing kernels");
     let (watertight, other) = (Kernel::Watertight, Kernel::MollerTrumbore);
     let speed_of = |kernel| {

@@ -1,5 +1,5 @@
 //! `raybatch`, the command-line tool: `bench` measures the trees on built-in scenes or a user
-//! mesh, `query` answers a file of rays against an OBJ mesh. See [`args::HELP`].
+//! mesh, `query` answers a file of rays against an OBJ mesh. See [`args::help`].
 //!
 //! Exit codes: 0 on success, 1 when an input or output file is bad, 2 when the command line is.
 
@@ -41,7 +41,7 @@ fn main() -> ExitCode {
 fn run(command: Command) -> Result<(), CliError> {
     match command {
         Command::Help => {
-            print!("{}", args::HELP);
+            print!("{}", args::help());
             Ok(())
         }
         Command::Bench(a) => bench::run(&a),
@@ -50,10 +50,10 @@ fn run(command: Command) -> Result<(), CliError> {
 }
 
 /// The usage line to show with a usage error, for the subcommand being run.
-fn usage_for(args: &[OsString]) -> &'static str {
+fn usage_for(args: &[OsString]) -> String {
     match args.first().and_then(|a| a.to_str()) {
-        Some("bench") => args::BENCH_USAGE,
-        Some("query") => args::QUERY_USAGE,
-        _ => args::TOP_USAGE,
+        Some("bench") => args::BENCH_USAGE.to_string(),
+        Some("query") => args::query_usage(),
+        _ => args::TOP_USAGE.to_string(),
     }
 }

@@ -10,12 +10,9 @@
 
 use std::path::Path;
 
-use raybatch::tree::aabb_tree::NodeFormat;
-use raybatch::tree::full_nodes::FullNodes;
-use raybatch::tree::quantized_nodes::QuantizedNodes;
-use raybatch::{AabbTree, BatchOrdering, BuildOptions, Mesh, Ray};
+use raybatch::{BatchOrdering, BuildOptions, Mesh, Ray};
 
-use crate::args::{QueryArgs, TreeKind};
+use crate::args::QueryArgs;
 use crate::atomic::write_atomically;
 use crate::error::CliError;
 use crate::formats::{encode_closest, encode_occluded};
@@ -40,10 +37,7 @@ pub fn run(args: &QueryArgs) -> Result<(), CliError> {
     let mesh = load_mesh(&args.mesh)?;
     let triangles = mesh.triangle_count();
     let rays = read_rays(&args.rays)?;
-    let answers = match args.tree {
-        TreeKind::Full => answer::<FullNodes>(mesh, &rays, args)?,
-        TreeKind::Quantized => answer::<QuantizedNodes>(mesh, &rays, args)?,
-    };
+    let answers = answer(mesh, &rays, args)?;
     write_atomically(&args.out, &answers.bytes)
         .map_err(|e| CliError::input(format!("cannot write {}: {e}", args.out.display())))?;
     eprintln!("{}", report(args, triangles, &answers).render());
@@ -66,10 +60,10 @@ fn check_output_path(out: &Path) -> Result<(), CliError> {
     Ok(())
 }
 
-/// Builds the tree with node format `N` and answers every ray.
-fn answer<N: NodeFormat>(mesh: Mesh, rays: &[Ray], args: &QueryArgs) -> Result<Answers, CliError> {
+/// Builds the structure `--tree` names and answers every ray.
+fn answer(mesh: Mesh, rays: &[Ray], args: &QueryArgs) -> Result<Answers, CliError> {
     let options = BuildOptions::default().with_leaf_size(args.leaf);
-    let (tree, build_ms) = time_ms(|| AabbTree::<N>::build(mesh, &options));
+    let (tree, build_ms) = time_ms(|| args.tree.build(mesh, &options));
     let tree = tree.map_err(|e| CliError::input(format!("{}: {e}", args.mesh.display())))?;
     let query = query_for(args);
     let mut runner = QueryRunner::new(&tree, query, rays.len()).map_err(|e| {

@@ -1,5 +1,9 @@
 //! Answering a whole ray set with one tree: the single place where query engines plug in.
 //!
+//! The tree is an [`AnyAccel`], whatever the structure: the tool picks structures at run time
+//! from [`raybatch::AccelKind`], and a per-ray query through it costs one indirect call, small
+//! next to a traversal.
+//!
 //! A [`QueryRunner`] owns its output buffers and its thread pool, so that timing a pass
 //! measures the queries and the writing of their answers, not allocation or thread start-up,
 //! and so that every engine is timed doing the same work. Two engines: [`Engine::PerRay`]
@@ -11,8 +15,7 @@
 //! with a parallel iterator, batched ones turn on parallel batching); `None` runs per-ray
 //! queries on the calling thread and batched ones in rayon's default pool.
 
-use raybatch::query::batch::PartitionKernel;
-use raybatch::{BatchOptions, BatchOrdering, BatchQueries, Bvh, Hit, Kernel, Ray, RayQueries};
+use raybatch::{AnyAccel, BatchOptions, BatchOrdering, Hit, Kernel, PartitionKernel, Ray};
 use rayon::prelude::*;
 use rayon::{ThreadPool, ThreadPoolBuildError, ThreadPoolBuilder};
 
@@ -43,9 +46,9 @@ impl QueryKind {
 /// How the rays are traversed.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Engine {
-    /// One ray at a time through [`RayQueries`].
+    /// One ray at a time (`cast_ray_with`, `occluded_with`).
     PerRay,
-    /// The whole slice at once through [`BatchQueries`].
+    /// The whole slice at once (`cast_rays_with`, `occluded_batch_with`).
     Batched {
         ordering: BatchOrdering,
         partition: PartitionKernel,
@@ -139,18 +142,22 @@ impl Query {
 }
 
 /// Answers ray sets with one tree and one [`Query`], into buffers it keeps between runs.
-pub struct QueryRunner<'t, T: Bvh> {
-    tree: &'t T,
+pub struct QueryRunner<'t> {
+    tree: &'t AnyAccel,
     query: Query,
     /// The pool the query runs in (`None`: the current thread, or rayon's default pool).
     pool: Option<ThreadPool>,
     answers: Answers,
 }
 
-impl<'t, T: Bvh> QueryRunner<'t, T> {
+impl<'t> QueryRunner<'t> {
     /// A runner whose buffers already hold room for `capacity` rays, with its thread pool
     /// started; fails only if the system refuses the threads.
-    pub fn new(tree: &'t T, query: Query, capacity: usize) -> Result<Self, ThreadPoolBuildError> {
+    pub fn new(
+        tree: &'t AnyAccel,
+        query: Query,
+        capacity: usize,
+    ) -> Result<Self, ThreadPoolBuildError> {
         Ok(Self {
             tree,
             query,
@@ -197,7 +204,7 @@ impl Answers {
     }
 
     /// Answers `rays` on the current thread or pool; returns how many rays hit something.
-    fn fill<T: Bvh>(&mut self, tree: &T, query: &Query, rays: &[Ray]) -> usize {
+    fn fill(&mut self, tree: &AnyAccel, query: &Query, rays: &[Ray]) -> usize {
         self.closest.clear();
         self.occluded.clear();
         match query.kind {
@@ -212,7 +219,7 @@ impl Answers {
         }
     }
 
-    fn fill_closest<T: Bvh>(&mut self, tree: &T, query: &Query, rays: &[Ray]) {
+    fn fill_closest(&mut self, tree: &AnyAccel, query: &Query, rays: &[Ray]) {
         let kernel = query.kernel;
         let answer = |r: &Ray| tree.cast_ray_with(r, kernel);
         match query.engine {
@@ -229,7 +236,7 @@ impl Answers {
         }
     }
 
-    fn fill_occluded<T: Bvh>(&mut self, tree: &T, query: &Query, rays: &[Ray]) {
+    fn fill_occluded(&mut self, tree: &AnyAccel, query: &Query, rays: &[Ray]) {
         let kernel = query.kernel;
         let answer = |r: &Ray| tree.occluded_with(r, kernel);
         match query.engine {

@@ -1,8 +1,8 @@
 //! What `raybatch bench` times: the ray sets of a scene, the query columns, and timing a
 //! [`Query`] over a ray set (whole, or in consecutive batches) through a [`QueryRunner`].
 
-use raybatch::scenes::{self, RaySet, SceneKind};
-use raybatch::{Bvh, Kernel, Mesh, Ray};
+use raybatch::{AnyAccel, Kernel, Mesh, Ray};
+use raybatch_tools::scenes::{self, RaySet, SceneKind};
 
 use crate::measure::{Measurement, measure};
 use crate::runner::{Engine, Query, QueryKind, QueryRunner};
@@ -67,13 +67,13 @@ impl RaySets {
 }
 
 /// Best of [`PASSES`] runs of `query` over `rays`, all in one call.
-pub fn time_query<T: Bvh>(tree: &T, query: Query, rays: &[Ray]) -> Measurement {
+pub fn time_query(tree: &AnyAccel, query: Query, rays: &[Ray]) -> Measurement {
     time_in_batches(tree, query, rays, rays.len())
 }
 
 /// Best of [`PASSES`] runs of `query` over `rays`, cut into consecutive batches of `batch`
 /// rays (the last may be shorter), one call each.
-pub fn time_in_batches<T: Bvh>(tree: &T, query: Query, rays: &[Ray], batch: usize) -> Measurement {
+pub fn time_in_batches(tree: &AnyAccel, query: Query, rays: &[Ray], batch: usize) -> Measurement {
     let batch = batch.max(1);
     let mut runner = QueryRunner::new(tree, query, batch.min(rays.len()))
         .expect("the benchmark's thread pools start");
@@ -83,6 +83,6 @@ pub fn time_in_batches<T: Bvh>(tree: &T, query: Query, rays: &[Ray], batch: usiz
 }
 
 /// Mrays/s of `query` over `rays` (see [`time_query`]).
-pub fn speed<T: Bvh>(tree: &T, query: Query, rays: &[Ray]) -> f64 {
+pub fn speed(tree: &AnyAccel, query: Query, rays: &[Ray]) -> f64 {
     time_query(tree, query, rays).mrays_per_s()
 }

@@ -4,10 +4,10 @@
 //! differences in triangle size, and line-of-sight queries along streets, which are clear when
 //! both ends see down the same street and blocked as soon as a building is in between.
 
-use glam::Vec3;
+use raybatch::Mesh;
+use raybatch::glam::Vec3;
 
 use super::rng::SplitMix64;
-use crate::mesh::Mesh;
 
 /// Width of every street, including those around the edge of the city.
 pub(crate) const STREET: f32 = 20.0;

@@ -14,13 +14,16 @@ mod terrain;
 pub use rays::{RaySet, generate};
 pub use rng::SplitMix64;
 
-use crate::mesh::Mesh;
+use raybatch::Mesh;
 
 /// A named mesh and what kind of scene it is.
 #[derive(Clone, Debug)]
 pub struct Scene {
+    /// `bunny`, `terrain`, `city`: what `raybatch bench --scenes` calls it.
     pub name: &'static str,
+    /// The triangles.
     pub mesh: Mesh,
+    /// Where the ray sets put cameras and sightlines.
     pub kind: SceneKind,
 }
 

@@ -6,15 +6,14 @@
 //! early exits), and line-of-sight segments (any-hit queries, mixed clear and blocked).
 //! Everything derives from the seed through [`SplitMix64`], so runs are comparable everywhere.
 
-use glam::Vec3;
+use raybatch::glam::Vec3;
+use raybatch::{Aabb, Mesh, Ray};
 use rayon::prelude::*;
 
 use super::SceneKind;
 use super::city::{self, Street};
 use super::rng::SplitMix64;
 use super::terrain::TerrainGrid;
-use crate::geom::{Aabb, Ray};
-use crate::mesh::Mesh;
 
 /// Which rays to generate; see [`generate`].
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -86,7 +85,7 @@ const TAN_HALF_FOV: f32 = 0.414_213_57;
 /// depend on the number of threads.
 ///
 /// The set only reads `mesh`'s bounds, except `LineOfSight` on a terrain built by
-/// [`super::terrain`], whose endpoints follow the triangulated surface. A mesh of another shape
+/// [`super::terrain()`], whose endpoints follow the triangulated surface. A mesh of another shape
 /// with `kind` `Terrain` falls back to the `Object` sightlines; with `kind` `City` it gets points
 /// at agent height on the street grid a city of its size would have. An empty mesh gets the
 /// rays of the box `[-1, 1]^3`.
@@ -294,9 +293,10 @@ fn city_sightline(rng: &mut SplitMix64, blocks: u32) -> Ray {
 
 #[cfg(test)]
 mod tests {
+    use raybatch::Kernel;
+    use raybatch::query::brute_force;
+
     use super::*;
-    use crate::geom::Kernel;
-    use crate::query::brute_force;
     use crate::scenes::{self, Scene};
 
     fn small_scenes() -> Vec<Scene> {

@@ -5,7 +5,7 @@
 //! integer arithmetic, `+`, `*`, `/` and `sqrt` are used (all exactly rounded by IEEE 754), never
 //! `sin`/`cos`/`exp`, whose results may differ by an ulp between math libraries.
 
-use glam::Vec3;
+use raybatch::glam::Vec3;
 
 /// The SplitMix64 generator (Steele, Lea, Flood 2014; the seeder of `xoshiro`): 64 bits of state,
 /// full period, statistically good enough for scenes and rays, reproducible everywhere.
@@ -18,6 +18,7 @@ pub struct SplitMix64 {
 const GAMMA: u64 = 0x9E37_79B9_7F4A_7C15;
 
 impl SplitMix64 {
+    /// A generator starting from `seed` (any value, zero included).
     pub fn new(seed: u64) -> Self {
         Self { state: seed }
     }

@@ -6,11 +6,11 @@
 //! [`TerrainGrid`] reads a generated mesh back, so ray sets can place points exactly on (or a
 //! fixed height above) its triangulated surface.
 
-use glam::Vec3;
+use raybatch::Mesh;
+use raybatch::glam::Vec3;
 use rayon::prelude::*;
 
 use super::rng::{bits_to_unit_f32, mix64};
-use crate::mesh::Mesh;
 
 /// Side of the square the terrain covers, `[0, SIZE] x [0, SIZE]` in `x`, `z`.
 pub(crate) const SIZE: f32 = 1000.0;

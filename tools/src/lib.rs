@@ -1,0 +1,13 @@
+//! # raybatch-tools
+//!
+//! What surrounds the `raybatch` library without being part of it: the built-in benchmark scenes
+//! and ray sets ([`scenes`]), shared by the `raybatch` command (`bench`, `query`), the criterion
+//! benchmarks, the examples and the peer comparison (`peers/`). A game that links `raybatch`
+//! never compiles any of this.
+//!
+//! The command itself lives in `src/cli/` (a binary target, not part of this library).
+
+#![warn(missing_docs)]
+#![deny(unsafe_code)]
+
+pub mod scenes;
