@@ -16,6 +16,7 @@ use crate::geom::{Kernel, Ray};
 use crate::hit::Hit;
 use crate::mesh::Mesh;
 use crate::query::{BatchError, BatchQueries, RayQueries};
+use crate::wide::WideTree;
 
 /// A kind of acceleration structure.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -24,11 +25,13 @@ pub enum AccelKind {
     Aabb,
     /// [`QuantizedAabbTree`]: the same tree with 16-byte quantized nodes.
     Quantized,
+    /// [`WideTree`]: the same tree collapsed to 4 children per node, SIMD box tests.
+    Bvh4,
 }
 
 impl AccelKind {
     /// Every kind, the default first.
-    pub const ALL: [AccelKind; 2] = [AccelKind::Aabb, AccelKind::Quantized];
+    pub const ALL: [AccelKind; 3] = [AccelKind::Aabb, AccelKind::Quantized, AccelKind::Bvh4];
 
     /// The fastest exact structure on our measurements (see the README's tables).
     pub const DEFAULT: AccelKind = AccelKind::Aabb;
@@ -38,6 +41,7 @@ impl AccelKind {
         match self {
             AccelKind::Aabb => "aabb",
             AccelKind::Quantized => "quantized",
+            AccelKind::Bvh4 => "bvh4",
         }
     }
 
@@ -46,6 +50,7 @@ impl AccelKind {
         match self {
             AccelKind::Aabb => "binary SAH tree, 32-byte nodes",
             AccelKind::Quantized => "binary SAH tree, 16-byte quantized nodes",
+            AccelKind::Bvh4 => "4-wide tree collapsed from the SAH tree, SIMD box tests",
         }
     }
 
@@ -64,6 +69,7 @@ impl AccelKind {
         Ok(match self {
             AccelKind::Aabb => AnyAccel::new(<AabbTree>::build(mesh, options)?),
             AccelKind::Quantized => AnyAccel::new(QuantizedAabbTree::build(mesh, options)?),
+            AccelKind::Bvh4 => AnyAccel::new(WideTree::build(mesh, options)?),
         })
     }
 }

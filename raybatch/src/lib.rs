@@ -23,7 +23,8 @@
 //! - data: [`geom`] (rays, boxes, triangle kernels), [`mesh`] (validated meshes, OBJ);
 //! - the interface: [`accel`] (what every structure implements), [`hit`] (hits, the tie rule,
 //!   visitors), [`workspace`] (per-thread memory);
-//! - structures: [`bvh`] (binary BVHs: build, ordering, node formats);
+//! - structures: [`bvh`] (binary BVHs: build, ordering, node formats), [`wide`] (the 4-wide
+//!   BVH collapsed from it);
 //! - engines: [`traverse`] (how a BVH walks one ray or a stream), [`batch`] (batch machinery);
 //! - what users call: [`query`] (per-ray and batched queries, brute force), [`catalog`] (every
 //!   structure by name, behind one dynamic type).
@@ -43,6 +44,7 @@ pub mod query;
 #[cfg(test)]
 mod test_support;
 pub mod traverse;
+pub mod wide;
 pub mod workspace;
 
 pub use accel::{Accel, Footprint, RayStream};
@@ -54,4 +56,5 @@ pub use glam;
 pub use hit::{Hit, Visitor};
 pub use mesh::{Mesh, MeshError};
 pub use query::{BatchError, BatchQueries, RayQueries};
+pub use wide::WideTree;
 pub use workspace::Workspace;

@@ -17,7 +17,7 @@ use glam::Vec3;
 use super::single::{test_triangles, trace_below};
 use crate::accel::RayStream;
 use crate::bvh::ordering::second_child_first;
-use crate::bvh::{Bvh, BvhScratch, Node};
+use crate::bvh::{Bvh, BvhScratch};
 use crate::geom::TriangleTest;
 use crate::hit::Visitor;
 
@@ -50,7 +50,8 @@ pub(crate) fn trace_stream<B, K, V>(
             continue;
         }
         let node = tree.node(index);
-        test_leaf::<B, K, V>(tree, stream, active, &node, visitor);
+        let slots = node.first..node.first + node.count;
+        test_leaf::<K, V>(stream, active, slots, |slot| tree.triangle(slot), visitor);
         if node.has_children() {
             let c = node.first_child;
             let (near, far) = if second_child_first(node.order, stream.octant_mask()) {
@@ -68,26 +69,25 @@ pub(crate) fn trace_stream<B, K, V>(
 /// Most triangles a leaf pass keeps at once; larger triangle ranges go in several passes.
 const LEAF_BATCH: usize = 16;
 
-/// Tests the node's triangles against rays `0..active`. Each triangle is fetched once (up to
-/// [`LEAF_BATCH`] at a time) for all rays, and each ray is rebuilt from its lane once for all
-/// those triangles.
-fn test_leaf<B, K, V>(
-    tree: &B,
+/// Tests the triangles in `slots` (read with `triangle`) against rays `0..active` of the
+/// stream. Each triangle is fetched once (up to [`LEAF_BATCH`] at a time) for all rays, and each
+/// ray is rebuilt from its lane once for all those triangles. Shared by every stream engine.
+pub(crate) fn test_leaf<K, V>(
     stream: &mut RayStream<'_>,
     active: usize,
-    node: &Node,
+    slots: std::ops::Range<u32>,
+    triangle: impl Fn(u32) -> (u32, [Vec3; 3]),
     visitor: &mut V,
 ) where
-    B: Bvh,
     K: TriangleTest,
     V: Visitor,
 {
     let mut fetched = [(0u32, [Vec3::ZERO; 3]); LEAF_BATCH];
-    let end = node.first + node.count;
-    for first in (node.first..end).step_by(LEAF_BATCH) {
+    let end = slots.end;
+    for first in slots.step_by(LEAF_BATCH) {
         let count = (end - first).min(LEAF_BATCH as u32) as usize;
         for (k, slot) in (first..).take(count).enumerate() {
-            fetched[k] = tree.triangle(slot);
+            fetched[k] = triangle(slot);
         }
         for i in 0..active {
             let ray = stream.ray(i);
