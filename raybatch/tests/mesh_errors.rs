@@ -3,8 +3,8 @@
 
 use glam::Vec3;
 use proptest::prelude::*;
+use raybatch::mesh::obj::{ObjError, ObjErrorKind};
 use raybatch::mesh::{MAX_COORDINATE, MAX_TRIANGLES};
-use raybatch::obj::{ObjError, ObjErrorKind};
 use raybatch::{AabbTree, BuildError, BuildOptions, Mesh, MeshError, QuantizedAabbTree};
 
 fn tri() -> Vec<Vec3> {

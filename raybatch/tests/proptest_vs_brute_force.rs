@@ -1,22 +1,21 @@
-//! Every tree, node format, ordering, leaf size and kernel must answer exactly like the
-//! brute-force reference: same closest hit (triangle id and the bits of `t`, `u`, `v`), same
-//! occlusion, same hits (`all_hits`, and `for_each_hit_with` for both kernels).
+//! Every structure of the zoo (every kind, leaf size and ordering) and kernel must answer
+//! exactly like the brute-force reference: same closest hit (triangle id and the bits of `t`,
+//! `u`, `v`), same occlusion, same hits (`all_hits`, and `for_each_hit_with` for both kernels).
 
 mod common;
 
-use common::{
-    RaySpec, aimed_ray_spec, all_trees, closest_is_first_of_all_hits, compare_all, describe,
-    mesh_strategy, ray_spec,
-};
+use common::oracles::{bits, closest_is_first_of_all_hits, compare_all, describe};
+use common::strategies::{RaySpec, aimed_ray_spec, mesh_strategy, ray_spec};
+use common::zoo::all_structures;
 use proptest::prelude::*;
 use raybatch::query::brute_force;
 use raybatch::{Kernel, Mesh};
 
 fn check(mesh: &Mesh, specs: &[RaySpec]) -> Result<(), TestCaseError> {
-    let trees = all_trees(mesh);
+    let zoo = all_structures(mesh);
     for spec in specs {
         let ray = spec.resolve(mesh);
-        compare_all(mesh, &trees, &ray)
+        compare_all(mesh, &zoo, &ray)
             .map_err(|e| TestCaseError::fail(format!("{spec:?}: {e}\nmesh: {}", describe(mesh))))?;
     }
     Ok(())
@@ -25,9 +24,10 @@ fn check(mesh: &Mesh, specs: &[RaySpec]) -> Result<(), TestCaseError> {
 proptest! {
     #![proptest_config(ProptestConfig::with_cases(256))]
 
-    /// All 18 trees against brute force on random soups (shared vertices, degenerate,
-    /// duplicated and coplanar triangles) and random rays (axis-parallel with signed zeros,
-    /// aimed at vertices and edge midpoints, starting on the surface, bounded and unbounded).
+    /// Every structure of the zoo (18 with two kinds) against brute force on random soups
+    /// (shared vertices, degenerate, duplicated and coplanar triangles) and random rays
+    /// (axis-parallel with signed zeros, aimed at vertices and edge midpoints, starting on the
+    /// surface, bounded and unbounded).
     #[test]
     fn trees_match_brute_force(
         mesh in mesh_strategy(),
@@ -66,7 +66,7 @@ proptest! {
                     prop_assert!(c.t == min_t, "closest {c:?} but smallest t {min_t}");
                     let lowest = all.iter().filter(|h| h.t == c.t).map(|h| h.triangle).min();
                     prop_assert_eq!(Some(c.triangle), lowest, "tie rule broken: {:?}", all);
-                    prop_assert!(all.iter().any(|h| common::bits(h) == common::bits(&c)));
+                    prop_assert!(all.iter().any(|h| bits(h) == bits(&c)));
                 }
                 for w in all.windows(2) {
                     let order = w[0].t.total_cmp(&w[1].t).then(w[0].triangle.cmp(&w[1].triangle));

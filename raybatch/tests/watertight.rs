@@ -1,25 +1,21 @@
 //! Watertightness: no ray from inside a closed mesh may escape under the watertight kernel,
-//! whatever tree answers it, even aimed exactly at shared vertices and edges.
+//! whatever structure answers it, even aimed exactly at shared vertices and edges.
 
 mod common;
 
-use common::{TreeKind, assert_closed_and_outward, edges, icosphere, trees_with};
+use common::meshes::{assert_closed_and_outward, edges, icosphere};
+use common::rng::{RngExt, StdRng, in_cube, seeded};
+use common::zoo::structures_with;
 use glam::Vec3;
-use rand::rngs::StdRng;
-use rand::{RngExt, SeedableRng};
 use raybatch::query::brute_force;
-use raybatch::{ChildOrdering, Kernel, Mesh, Ray};
+use raybatch::{AccelKind, ChildOrdering, Kernel, Mesh, Ray};
 
 const RAYS: usize = 100_000;
 
 /// A point uniformly distributed in the ball of radius `r`.
 fn in_ball(rng: &mut StdRng, r: f32) -> Vec3 {
     loop {
-        let p = Vec3::new(
-            rng.random_range(-1.0f32..1.0),
-            rng.random_range(-1.0f32..1.0),
-            rng.random_range(-1.0f32..1.0),
-        );
+        let p = in_cube(rng, 1.0);
         if p.length_squared() <= 1.0 {
             return p * r;
         }
@@ -81,8 +77,8 @@ fn rays(mesh: &Mesh, rng: &mut StdRng) -> Vec<(Ray, Aim)> {
 fn no_leaks_from_inside_closed_icosphere() {
     let mesh = icosphere(4);
     assert_closed_and_outward(&mesh, Vec3::ZERO);
-    let trees = trees_with(&mesh, &TreeKind::ALL, &[1, 4], &[ChildOrdering::Pns]);
-    let mut rng = StdRng::seed_from_u64(0x5eed);
+    let zoo = structures_with(&mesh, &AccelKind::ALL, &[1, 4], &[ChildOrdering::Pns]);
+    let mut rng = seeded(0x5eed);
     let rays = rays(&mesh, &mut rng);
     let count = |aim: Aim| rays.iter().filter(|(_, a)| *a == aim).count();
     let aimed = count(Aim::Vertex) + count(Aim::EdgeMidpoint);
@@ -91,10 +87,10 @@ fn no_leaks_from_inside_closed_icosphere() {
     // Möller-Trumbore leaks per aim (same order as the enum).
     let mut mt_leaks = [0usize; 3];
     for (i, (ray, aim)) in rays.iter().enumerate() {
-        for t in &trees {
+        for t in &zoo {
             let h = t
-                .tree
-                .cast(ray, Kernel::Watertight)
+                .accel
+                .cast_ray_with(ray, Kernel::Watertight)
                 .unwrap_or_else(|| panic!("{}: leak, ray {i} ({aim:?}): {ray:?}", t.name));
             // The hit is on the sphere (radius 1, the facets are at most ~0.2% inside).
             let r = ray.at(h.t).length();
@@ -104,16 +100,20 @@ fn no_leaks_from_inside_closed_icosphere() {
                 t.name
             );
             assert!(
-                t.tree.occluded(ray, Kernel::Watertight),
+                t.accel.occluded_with(ray, Kernel::Watertight),
                 "{}: {ray:?}",
                 t.name
             );
         }
-        if trees[0].tree.cast(ray, Kernel::MollerTrumbore).is_none() {
+        if zoo[0]
+            .accel
+            .cast_ray_with(ray, Kernel::MollerTrumbore)
+            .is_none()
+        {
             mt_leaks[*aim as usize] += 1;
         }
     }
-    // The kernel itself, without any tree, on a tenth of the rays.
+    // The kernel itself, without any structure, on a tenth of the rays.
     for (ray, _) in rays.iter().step_by(10) {
         assert!(
             brute_force::cast_ray(&mesh, ray, Kernel::Watertight).is_some(),
@@ -122,13 +122,13 @@ fn no_leaks_from_inside_closed_icosphere() {
     }
     let total: usize = mt_leaks.iter().sum();
     eprintln!(
-        "watertight: 0 leaks in {} rays x {} trees (icosphere, {} triangles). \
+        "watertight: 0 leaks in {} rays x {} structures (icosphere, {} triangles). \
          Moller-Trumbore ({}): {total} leaks ({:.3}%): {} of {} rays aimed at vertices, \
          {} of {} aimed at edge midpoints, {} of {} random",
         rays.len(),
-        trees.len(),
+        zoo.len(),
         mesh.triangle_count(),
-        trees[0].name,
+        zoo[0].name,
         100.0 * total as f64 / rays.len() as f64,
         mt_leaks[0],
         count(Aim::Vertex),

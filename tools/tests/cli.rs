@@ -410,16 +410,22 @@ fn quick_bench_prints_the_tables() {
     }
     let tables = tables(&out);
     assert_eq!(tables.len(), 3, "{out}");
-    // Header, rule, and one row per tree (--quick: pns only).
+    // Header, rule, and one row per structure of the catalog (--quick: pns only).
+    let kinds = raybatch::AccelKind::ALL;
     let main = &tables[0];
-    assert_eq!(main.len(), 4, "{out}");
+    assert_eq!(main.len(), 2 + kinds.len(), "{out}");
     assert!(main[0].starts_with("| tree "), "{out}");
-    assert!(main[2].starts_with("| aabb") && main[3].starts_with("| quantized"));
-    // Per-ray vs batched: 6 queries on each of the 2 pns trees.
+    for (row, kind) in main[2..].iter().zip(kinds) {
+        assert!(row.starts_with(&format!("| {} ", kind.name())), "{out}");
+    }
+    // Per-ray vs batched: 6 queries on each pns tree.
     let batched = &tables[1];
-    assert_eq!(batched.len(), 2 + 12, "{out}");
+    assert_eq!(batched.len(), 2 + 6 * kinds.len(), "{out}");
     assert!(batched[0].contains("by-octant") && batched[0].contains("2 threads"));
-    assert!(batched[2].starts_with("| aabb/pns") && batched[13].starts_with("| quantized/pns"));
+    for (k, kind) in kinds.iter().enumerate() {
+        let first = &batched[2 + 6 * k];
+        assert!(first.starts_with(&format!("| {}/pns ", kind.name())), "{out}");
+    }
     // Batch sizes: 64, then all 2000 (4096 is more than the rays).
     let sweep = &tables[2];
     assert_eq!(sweep.len(), 2 + 2, "{out}");

@@ -1,0 +1,140 @@
+//! The batched queries against the single-ray reference, bit for bit, on the rays that test
+//! the contract's edges: invalid rays (they miss in every path, alone or among valid rays),
+//! exact duplicate triangles (the lowest id wins every tie) and shuffled batches (answers do
+//! not depend on the order of the rays), for every structure of the zoo.
+
+mod common;
+
+use common::batch::{
+    all_combos, batched_closest, batched_hits, batched_occluded, check_combo, check_shuffled,
+    compare_closest, kernel_index, ok, single_ray_answers_both, spread_combos,
+};
+use common::meshes::{icosphere_all_duplicated, icosphere_with_duplicates};
+use common::oracles::opt_bits;
+use common::rays::{every_nth, hard_rays, invalid_rays};
+use common::zoo::all_structures;
+use raybatch::query::brute_force;
+use raybatch::{Hit, Kernel, Ray};
+
+/// Invalid rays (NaN or infinite origin or direction, zero or subnormal direction, empty or
+/// NaN ranges) miss in every path, also when mixed among valid rays.
+#[test]
+fn invalid_rays_miss() {
+    let mesh = icosphere_with_duplicates(1);
+    let invalid = invalid_rays();
+    let valid = every_nth(&hard_rays(&mesh, 5), 7);
+    // Alone, and interleaved with valid rays.
+    let mut mixed = Vec::new();
+    for (i, r) in valid.iter().enumerate() {
+        mixed.push(*r);
+        mixed.push(invalid[i % invalid.len()]);
+    }
+    let zoo = all_structures(&mesh);
+    let all = all_combos(1, 0);
+    for rays in [invalid.clone(), mixed] {
+        for (t, tree) in zoo.iter().enumerate() {
+            let expected = single_ray_answers_both(&tree.accel, &rays);
+            for combo in spread_combos(&all, t, 32) {
+                ok(check_combo(tree, &rays, &expected, &combo));
+                let closest = batched_closest(tree, &rays, &combo).unwrap();
+                let occluded = batched_occluded(tree, &rays, &combo).unwrap();
+                let hits = batched_hits(tree, &rays, &combo);
+                for (i, ray) in rays.iter().enumerate() {
+                    if ray.is_valid() {
+                        continue;
+                    }
+                    let what = format!("{} {combo:?}: invalid ray {ray:?}", tree.name);
+                    assert_eq!(closest[i], None, "{what}");
+                    assert!(!occluded[i], "{what}");
+                    assert!(hits.iter().all(|(j, _)| *j != i), "{what}");
+                }
+            }
+        }
+    }
+}
+
+/// Checks the tie rule on `hit`: no triangle hit at the same `t` (in `brute`, the brute-force
+/// hits of `ray`) has a lower id.
+fn lowest_id_at_t(brute: &[Hit], ray: &Ray, hit: Option<Hit>) -> Result<(), String> {
+    let Some(hit) = hit else { return Ok(()) };
+    let lowest = brute
+        .iter()
+        .filter(|h| h.t == hit.t)
+        .map(|h| h.triangle)
+        .min();
+    if lowest != Some(hit.triangle) {
+        return Err(format!(
+            "hit triangle {} at t = {}, but the triangles hit at that t (brute force) are led \
+             by {lowest:?}, for {ray:?}",
+            hit.triangle, hit.t
+        ));
+    }
+    Ok(())
+}
+
+/// Exact duplicate triangles: every hit is a tie, and the lowest id wins in the single-ray
+/// and the batched path, for every structure and combination.
+#[test]
+fn duplicate_triangles_lowest_id_wins() {
+    let mesh = icosphere_all_duplicated(1);
+    let rays = every_nth(&hard_rays(&mesh, 6), 3);
+    let brute: Vec<Vec<Vec<Hit>>> = Kernel::ALL
+        .iter()
+        .map(|&k| {
+            rays.iter()
+                .map(|r| brute_force::all_hits(&mesh, r, k))
+                .collect()
+        })
+        .collect();
+    let zoo = all_structures(&mesh);
+    let all = all_combos(1, 0);
+    let mut ties = 0;
+    for (t, tree) in zoo.iter().enumerate() {
+        for kernel in Kernel::ALL {
+            let brute = &brute[kernel_index(kernel)];
+            let single: Vec<Option<Hit>> = rays
+                .iter()
+                .map(|r| tree.accel.cast_ray_with(r, kernel))
+                .collect();
+            for (i, ray) in rays.iter().enumerate() {
+                let what = format!("{} {kernel:?} ray {i}", tree.name);
+                ok(lowest_id_at_t(&brute[i], ray, single[i])
+                    .map_err(|e| format!("{what}: single-ray: {e}")));
+                ties += usize::from(brute[i].len() >= 2 && single[i].is_some());
+            }
+            for combo in spread_combos(&all, t, 32) {
+                if combo.kernel != kernel {
+                    continue;
+                }
+                let batched = batched_closest(tree, &rays, &combo).unwrap();
+                for (i, ray) in rays.iter().enumerate() {
+                    let what = format!("{} {combo:?} ray {i}", tree.name);
+                    ok(lowest_id_at_t(&brute[i], ray, batched[i])
+                        .map_err(|e| format!("{what}: batched: {e}")));
+                }
+                let expected: Vec<_> = single.iter().map(|h| opt_bits(*h)).collect();
+                ok(compare_closest(
+                    &format!("{} {combo:?}", tree.name),
+                    &rays,
+                    &batched,
+                    &expected,
+                ));
+            }
+        }
+    }
+    assert!(ties > 1000, "only {ties} ties");
+}
+
+/// Results do not depend on the order of the rays in the batch.
+#[test]
+fn ray_order_does_not_matter() {
+    let mesh = icosphere_with_duplicates(2);
+    let rays = every_nth(&hard_rays(&mesh, 8), 3);
+    let zoo = all_structures(&mesh);
+    let all = all_combos(1, 0);
+    for (t, tree) in zoo.iter().enumerate() {
+        for (j, combo) in spread_combos(&all, t, 4).iter().enumerate() {
+            ok(check_shuffled(tree, &rays, (t * 4 + j) as u64, combo));
+        }
+    }
+}
