@@ -424,7 +424,10 @@ fn quick_bench_prints_the_tables() {
     assert!(batched[0].contains("by-octant") && batched[0].contains("2 threads"));
     for (k, kind) in kinds.iter().enumerate() {
         let first = &batched[2 + 6 * k];
-        assert!(first.starts_with(&format!("| {}/pns ", kind.name())), "{out}");
+        assert!(
+            first.starts_with(&format!("| {}/pns ", kind.name())),
+            "{out}"
+        );
     }
     // Batch sizes: 64, then all 2000 (4096 is more than the rays).
     let sweep = &tables[2];
