@@ -5,6 +5,7 @@
 //! - [`node`]: the node layout and the 4-lane box test (identical, lane by lane, to the scalar
 //!   slab test).
 //! - [`collapse`]: binary tree to 4-wide tree.
+//! - `simd`: the box test with SSE intrinsics on x86-64 (its portable twin is in [`node`]).
 //! - [`single`]: the one-ray loop, nearest child first by entry distance.
 //! - [`stream`]: a stream of rays going down once, partitioned against each child box.
 //!
@@ -14,6 +15,9 @@
 
 pub(crate) mod collapse;
 pub mod node;
+#[cfg(target_arch = "x86_64")]
+#[allow(unsafe_code)]
+pub(crate) mod simd;
 pub(crate) mod single;
 pub(crate) mod stream;
 

@@ -15,7 +15,7 @@
 //! FMA, the same exit scaling, and the same NaN-safe compare-and-select fold. A lane misses
 //! exactly when the scalar test misses and enters at the same distance (a test checks it).
 
-use glam::{BVec4A, Vec4};
+use glam::Vec4;
 
 use crate::geom::aabb::EXIT_SCALE;
 use crate::geom::{Aabb, PreparedRay};
@@ -71,13 +71,13 @@ impl WideNode {
 /// Per-ray constants of the 4-lane box test, computed once per ray.
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct WideRay {
-    origin: [Vec4; 3],
-    inv_dir: [Vec4; 3],
+    pub(crate) origin: [Vec4; 3],
+    pub(crate) inv_dir: [Vec4; 3],
     /// For each axis, the index in [`WideNode::bounds`] of the near plane (the max plane when
     /// the direction is negative) and of the far plane.
-    near: [usize; 3],
-    far: [usize; 3],
-    tmin: Vec4,
+    pub(crate) near: [usize; 3],
+    pub(crate) far: [usize; 3],
+    pub(crate) tmin: Vec4,
 }
 
 impl WideRay {
@@ -94,33 +94,40 @@ impl WideRay {
         }
     }
 
-    /// The entry distance of each child box within `[tmin, tmax]`, `+inf` where the ray
-    /// misses (lane by lane, the scalar slab test).
+    /// Which child boxes the ray enters within `[tmin, tmax]` (bit `k` for slot `k`) and the
+    /// entry distances (meaningful for those slots only), lane by lane the scalar slab test.
     #[inline(always)]
-    pub(crate) fn entries(&self, node: &WideNode, tmax: f32) -> Vec4 {
-        let lo = self.tmin;
+    pub(crate) fn hits(&self, node: &WideNode, tmax: f32) -> (u32, Vec4) {
+        #[cfg(target_arch = "x86_64")]
+        {
+            super::simd::hits(self, node, tmax)
+        }
+        #[cfg(not(target_arch = "x86_64"))]
+        {
+            self.hits_portable(node, tmax)
+        }
+    }
+
+    /// [`WideRay::hits`] with glam's `Vec4` only: the portable twin of the SSE version (used
+    /// where SSE is not the baseline, and by the tests everywhere).
+    #[cfg_attr(all(target_arch = "x86_64", not(test)), allow(dead_code))]
+    #[inline(always)]
+    pub(crate) fn hits_portable(&self, node: &WideNode, tmax: f32) -> (u32, Vec4) {
         // Hits have finite `t`, so an infinite entry (a parallel ray below a slab) is a miss.
-        let hi = Vec4::splat(tmax.min(f32::MAX));
-        let mut near = lo;
-        let mut far = hi;
+        let mut near = self.tmin;
+        let mut far = Vec4::splat(tmax.min(f32::MAX));
         for axis in 0..3 {
             let (o, inv) = (self.origin[axis], self.inv_dir[axis]);
             let enter = (node.bounds[self.near[axis]] - o) * inv;
             let exit = (node.bounds[self.far[axis]] - o) * inv * EXIT_SCALE;
             // Compare-and-select, so a NaN lane (the ray grazes this slab) leaves the range
-            // alone; max/min of the selected (never NaN) values is exact in any order.
-            near = near.max(Vec4::select(enter.cmpgt(lo), enter, lo));
-            far = far.min(Vec4::select(exit.cmplt(hi), exit, hi));
+            // alone. Folding the axes one by one gives the scalar test's max (min) of the
+            // selected values, which never depends on the order.
+            near = Vec4::select(enter.cmpgt(near), enter, near);
+            far = Vec4::select(exit.cmplt(far), exit, far);
         }
-        Vec4::select(near.cmple(far), near, Vec4::INFINITY)
+        (near.cmple(far).bitmask(), near)
     }
-}
-
-/// Bit `k` set where lane `k` of `entries` is a hit (finite).
-#[inline(always)]
-pub(crate) fn hit_mask(entries: Vec4) -> u32 {
-    let hit: BVec4A = entries.cmplt(Vec4::INFINITY);
-    hit.bitmask()
 }
 
 #[cfg(test)]
@@ -129,7 +136,8 @@ mod tests {
     use crate::geom::Ray;
     use crate::test_support::TestRng;
 
-    /// Every lane agrees with the scalar slab test: same hit or miss, same entry distance.
+    /// Every lane of both versions (SSE where built for x86-64, and the portable one) agrees
+    /// with the scalar slab test: same hit or miss, same entry distance.
     #[test]
     fn lanes_match_the_scalar_box_test() {
         let mut rng = TestRng::new(11);
@@ -164,14 +172,26 @@ mod tests {
             let Some(ray) = PreparedRay::new(&Ray::with_range(origin, dir, 0.0, tmax)) else {
                 continue;
             };
-            let entries = WideRay::new(&ray).entries(&node, tmax);
+            let wide_ray = WideRay::new(&ray);
+            let (mask, entries) = wide_ray.hits(&node, tmax);
+            let (portable_mask, portable_entries) = wide_ray.hits_portable(&node, tmax);
+            assert_eq!(mask, portable_mask, "{boxes:?}, {ray:?}");
             for slot in 0..WIDTH {
                 let scalar = if slot < slots {
                     boxes[slot].entry(&ray, tmax)
                 } else {
                     f32::INFINITY
                 };
-                assert_eq!(entries[slot], scalar, "slot {slot} of {boxes:?}, {ray:?}");
+                let hit = mask & (1 << slot) != 0;
+                assert_eq!(
+                    hit,
+                    scalar < f32::INFINITY,
+                    "slot {slot} of {boxes:?}, {ray:?}"
+                );
+                if hit {
+                    assert_eq!(entries[slot], scalar, "slot {slot} of {boxes:?}, {ray:?}");
+                    assert_eq!(portable_entries[slot], scalar, "slot {slot}, {ray:?}");
+                }
             }
         }
     }

@@ -4,7 +4,7 @@
 //! without reading anything (`<=`, for the tie rule of [`crate::hit`]).
 
 use super::WideTree;
-use super::node::{WideRay, hit_mask};
+use super::node::WideRay;
 use crate::bvh::nodes::leaf_word;
 use crate::geom::{PreparedRay, TriangleTest};
 use crate::hit::Visitor;
@@ -52,8 +52,7 @@ pub(crate) fn trace_from<K: TriangleTest, V: Visitor>(
             }
         } else {
             let node = &tree.nodes[item as usize];
-            let entries = wide_ray.entries(node, *tmax);
-            let mask = hit_mask(entries);
+            let (mask, entries) = wide_ray.hits(node, *tmax);
             if mask != 0 {
                 item = nearest_pushing_others(mask, entries.to_array(), &node.child, stack);
                 continue;
