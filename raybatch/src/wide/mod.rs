@@ -89,8 +89,16 @@ impl WideTree {
 pub struct WideScratch {
     /// One-ray stack: child word and entry distance.
     stack: Vec<(u32, f32)>,
-    /// Stream stack: (node, slot) of the child box to test, and how many rays reach its parent.
-    stream_stack: Vec<(u32, u32, u32)>,
+    /// Stream: the rays, prepared.
+    rays: Vec<PreparedRay>,
+    /// Stream: what the box tests read of each ray.
+    boxes: Vec<stream::BoxRay>,
+    /// Stream: the lists of ray indices.
+    ids: Vec<u32>,
+    /// Stream: child masks of the list being split.
+    masks: Vec<u8>,
+    /// Stream: the lists waiting.
+    pending: Vec<stream::Pending>,
 }
 
 impl Accel for WideTree {

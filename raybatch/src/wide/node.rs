@@ -15,7 +15,7 @@
 //! FMA, the same exit scaling, and the same NaN-safe compare-and-select fold. A lane misses
 //! exactly when the scalar test misses and enters at the same distance (a test checks it).
 
-use glam::Vec4;
+use glam::{Vec3, Vec4};
 
 use crate::geom::aabb::EXIT_SCALE;
 use crate::geom::{Aabb, PreparedRay};
@@ -62,8 +62,8 @@ impl WideNode {
     pub(crate) fn slot_bounds(&self, slot: usize) -> Aabb {
         let b = &self.bounds;
         Aabb::new(
-            glam::Vec3::new(b[0][slot], b[1][slot], b[2][slot]),
-            glam::Vec3::new(b[3][slot], b[4][slot], b[5][slot]),
+            Vec3::new(b[0][slot], b[1][slot], b[2][slot]),
+            Vec3::new(b[3][slot], b[4][slot], b[5][slot]),
         )
     }
 }
@@ -82,15 +82,29 @@ pub(crate) struct WideRay {
 
 impl WideRay {
     pub(crate) fn new(ray: &PreparedRay) -> Self {
-        let negative = |axis: usize| ray.inv_dir[axis] < 0.0;
-        let near = [0, 1, 2].map(|a| if negative(a) { 3 + a } else { a });
-        let far = [0, 1, 2].map(|a| if negative(a) { a } else { 3 + a });
+        Self::from_parts(ray.origin, ray.inv_dir, ray.tmin)
+    }
+
+    /// The constants of the ray with this origin, inverse direction and `tmin`.
+    #[inline(always)]
+    pub(crate) fn from_parts(origin: Vec3, inv_dir: Vec3, tmin: f32) -> Self {
+        let negative = [inv_dir.x < 0.0, inv_dir.y < 0.0, inv_dir.z < 0.0];
+        let near = |axis: usize| axis + 3 * negative[axis] as usize;
+        let far = |axis: usize| axis + 3 * !negative[axis] as usize;
         Self {
-            origin: [0, 1, 2].map(|a| Vec4::splat(ray.origin[a])),
-            inv_dir: [0, 1, 2].map(|a| Vec4::splat(ray.inv_dir[a])),
-            near,
-            far,
-            tmin: Vec4::splat(ray.tmin),
+            origin: [
+                Vec4::splat(origin.x),
+                Vec4::splat(origin.y),
+                Vec4::splat(origin.z),
+            ],
+            inv_dir: [
+                Vec4::splat(inv_dir.x),
+                Vec4::splat(inv_dir.y),
+                Vec4::splat(inv_dir.z),
+            ],
+            near: [near(0), near(1), near(2)],
+            far: [far(0), far(1), far(2)],
+            tmin: Vec4::splat(tmin),
         }
     }
 
