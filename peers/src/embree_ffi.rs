@@ -61,6 +61,8 @@ pub const RTC_BUILD_QUALITY_LOW: RTCBuildQuality = 0;
 pub const RTC_BUILD_QUALITY_MEDIUM: RTCBuildQuality = 1;
 pub const RTC_BUILD_QUALITY_HIGH: RTCBuildQuality = 2;
 pub const RTC_SCENE_FLAG_NONE: RTCSceneFlags = 0;
+/// Avoids optimizations that reduce arithmetic accuracy (Embree 3's `RTC_SCENE_FLAG_ROBUST`).
+pub const RTC_SCENE_FLAG_ROBUST: RTCSceneFlags = 1 << 2;
 pub const RTC_INTERSECT_CONTEXT_FLAG_INCOHERENT: RTCIntersectContextFlags = 0;
 pub const RTC_INVALID_GEOMETRY_ID: c_uint = u32::MAX;
 
@@ -338,12 +340,13 @@ pub struct Scene<'d> {
 impl<'d> Scene<'d> {
     /// Copies the mesh into Embree-owned buffers (`rtcSetNewGeometryBuffer` over-allocates the
     /// vertex buffer so the last float3 can be read with a 16-byte load), builds with `quality`
-    /// for both the geometry and the scene (default scene flags), and commits.
+    /// for both the geometry and the scene, with scene `flags`, and commits.
     pub fn triangles(
         device: &'d Device,
         vertices: &[Vec3],
         triangles: &[[u32; 3]],
         quality: RTCBuildQuality,
+        flags: RTCSceneFlags,
     ) -> Result<Self, String> {
         let dev = device.raw();
         // SAFETY: every call gets live handles; the buffers returned by rtcSetNewGeometryBuffer
@@ -396,7 +399,7 @@ impl<'d> Scene<'d> {
                 handle,
                 _device: PhantomData,
             };
-            rtcSetSceneFlags(scene.raw(), RTC_SCENE_FLAG_NONE);
+            rtcSetSceneFlags(scene.raw(), flags);
             rtcSetSceneBuildQuality(scene.raw(), quality);
             let id = rtcAttachGeometry(scene.raw(), geometry);
             // The scene holds its own reference now.
@@ -466,7 +469,14 @@ mod tests {
             Vec3::new(1.0, 1.0, 1.0),
             Vec3::new(0.0, 1.0, 1.0),
         ];
-        Scene::triangles(device, &v, &[[0, 1, 2], [0, 2, 3]], RTC_BUILD_QUALITY_HIGH).unwrap()
+        Scene::triangles(
+            device,
+            &v,
+            &[[0, 1, 2], [0, 2, 3]],
+            RTC_BUILD_QUALITY_HIGH,
+            RTC_SCENE_FLAG_NONE,
+        )
+        .unwrap()
     }
 
     #[test]

@@ -241,17 +241,32 @@ pub fn raybatch_batched(
 /// The build quality used for both the geometry and the scene (scene flags stay default).
 pub const EMBREE_QUALITY: rtc::RTCBuildQuality = rtc::RTC_BUILD_QUALITY_HIGH;
 
-/// Two rows sharing one build: `rtcIntersect1` per ray (the baseline every ratio refers to) and
-/// `rtcIntersect1M` over the whole array. With `any_hit`, also `rtcOccluded1` (first row).
+/// Two rows sharing one build: `rtcIntersect1` per ray (the baseline every ratio refers to,
+/// with default flags) and `rtcIntersect1M` over the whole array. With `any_hit`, also
+/// `rtcOccluded1` (first row). `robust` sets `RTC_SCENE_FLAG_ROBUST` (Embree's more accurate
+/// mode, the like-for-like peer of an exact library); the rows' names then say "robust".
 pub fn embree(
     device: &rtc::Device,
     mesh: &Mesh,
     rays: &[Ray],
     runs: usize,
     any_hit: bool,
+    robust: bool,
 ) -> Result<[Run; 2], String> {
+    let flags = if robust {
+        rtc::RTC_SCENE_FLAG_ROBUST
+    } else {
+        rtc::RTC_SCENE_FLAG_NONE
+    };
+    let suffix = if robust { " robust" } else { "" };
     let (build, scene) = best_of(runs, || {
-        rtc::Scene::triangles(device, mesh.vertices(), mesh.triangles(), EMBREE_QUALITY)
+        rtc::Scene::triangles(
+            device,
+            mesh.vertices(),
+            mesh.triangles(),
+            EMBREE_QUALITY,
+            flags,
+        )
     });
     let scene = scene?;
     let native: Vec<rtc::RTCRay> = rays
@@ -266,7 +281,12 @@ pub fn embree(
         scene.intersect1(&mut context, &mut rh);
         to_hit(&rh)
     });
-    progress("embree rtcIntersect1", build, query1, rays.len());
+    progress(
+        &format!("embree{suffix} rtcIntersect1"),
+        build,
+        query1,
+        rays.len(),
+    );
     let any_hit = any_hit.then(|| {
         time_any_hit(runs, &native, "rtcOccluded1", |r| {
             scene.occluded1(&mut context, r)
@@ -286,18 +306,24 @@ pub fn embree(
         query_m = query_m.min(start.elapsed());
         black_box(&hits_m);
     }
-    progress("embree rtcIntersect1M", build, query_m, rays.len());
+    progress(
+        &format!("embree{suffix} rtcIntersect1M"),
+        build,
+        query_m,
+        rays.len(),
+    );
 
     let structure = |call: &str| {
         format!(
-            "{call}; BVH build quality HIGH (scene + geometry), default scene flags, threads=1, \
+            "{call}; BVH build quality HIGH (scene + geometry), {} scene flags, threads=1, \
              {} tasking",
+            if robust { "ROBUST" } else { "default" },
             device.tasking_system()
         )
     };
     Ok([
         Run {
-            engine: "Embree rtcIntersect1".to_string(),
+            engine: format!("Embree{suffix} rtcIntersect1"),
             structure: structure("1 ray per call"),
             build,
             query: query1,
@@ -305,7 +331,7 @@ pub fn embree(
             any_hit,
         },
         Run {
-            engine: "Embree rtcIntersect1M".to_string(),
+            engine: format!("Embree{suffix} rtcIntersect1M"),
             structure: structure("whole array per call (stream)"),
             build,
             query: query_m,

@@ -168,7 +168,8 @@ fn run_all(
     for kind in AccelKind::ALL {
         out.push(engines::raybatch_batched(kind, mesh, rays, runs, any_hit)?);
     }
-    out.extend(engines::embree(device, mesh, rays, runs, any_hit)?);
+    out.extend(engines::embree(device, mesh, rays, runs, any_hit, false)?);
+    out.extend(engines::embree(device, mesh, rays, runs, any_hit, true)?);
     out.push(engines::obvhs_cwbvh(mesh, rays, runs, any_hit));
     out.push(engines::obvhs_bvh2(mesh, rays, runs, any_hit));
     out.push(engines::parry(mesh, rays, runs, any_hit)?);

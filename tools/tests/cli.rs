@@ -307,6 +307,33 @@ fn batched_and_threaded_output_equals_per_ray_output() {
     }
 }
 
+/// `--passes` and `--batch-size` change the timing, never the output; the JSON line reports
+/// every pass.
+#[test]
+fn passes_and_batch_size_keep_the_output() {
+    let dir = TempDir::new("passes");
+    let rays = many_rays();
+    let (mesh, rays_path) = write_inputs(&dir, &rays);
+    for tree in raybatch::AccelKind::ALL.map(|k| k.name()) {
+        let base = ["--kind", "closest", "--tree", tree];
+        let (expected, _) = query_ok(&dir, &mesh, &rays_path, &base);
+        let extra = [
+            base.as_slice(),
+            &["--batched", "--passes", "3", "--batch-size", "1000"],
+        ]
+        .concat();
+        let (bytes, line) = query_ok(&dir, &mesh, &rays_path, &extra);
+        assert!(bytes == expected, "{extra:?}: output differs");
+        assert_eq!(json_int(&line, "passes"), Some(3), "{line}");
+        assert_eq!(json_int(&line, "batch_size"), Some(1000), "{line}");
+        let passes = line
+            .split("\"passes_ms\":[")
+            .nth(1)
+            .and_then(|r| r.split(']').next());
+        assert_eq!(passes.map(|p| p.split(',').count()), Some(3), "{line}");
+    }
+}
+
 #[test]
 fn empty_ray_file_gives_empty_output() {
     let dir = TempDir::new("empty");

@@ -59,6 +59,11 @@ prints one JSON line of statistics on stderr.
                     of one by one
   --threads N       run the query on N threads (default: 1 for the per-ray engine,
                     rayon's default, one per core, for --batched)
+  --passes N        answer the rays once to warm up, then N more times, timing each; the
+                    JSON line reports the median (query_ms, mrays_per_s) and every pass
+                    (passes_ms). Default: one timed pass, no warm-up
+  --batch-size N    with --batched, pass the rays to the API in calls of N rays (default:
+                    all in one call), e.g. 4096 for a game frame's line-of-sight work
 
 Exit codes: 0 success, 1 bad input or output file, 2 bad command line.
 ",
@@ -77,7 +82,8 @@ pub fn query_usage() -> String {
     format!(
         "usage: raybatch query --mesh MESH.obj --rays RAYS.bin \
 --kind closest|any --out HITS.bin [--tree {}] \
-[--kernel watertight|moller-trumbore] [--leaf N] [--batched] [--threads N]",
+[--kernel watertight|moller-trumbore] [--leaf N] [--batched] [--threads N] \
+[--passes N] [--batch-size N]",
         tree_names().join("|")
     )
 }
@@ -143,6 +149,10 @@ pub struct QueryArgs {
     pub batched: bool,
     /// Threads to run on (`None`: one for the per-ray engine, rayon's default for batched).
     pub threads: Option<usize>,
+    /// Timed passes after a warm-up (`None`: one pass, no warm-up).
+    pub passes: Option<usize>,
+    /// Rays per call of the batched engine (`None`: all in one call).
+    pub batch_size: Option<usize>,
 }
 
 /// Parses the arguments after the program name.
@@ -187,6 +197,7 @@ fn parse_bench(cursor: &mut Cursor) -> Result<BenchArgs, CliError> {
 fn parse_query(cursor: &mut Cursor) -> Result<QueryArgs, CliError> {
     let (mut mesh, mut rays, mut kind, mut out) = (None, None, None, None);
     let (mut tree, mut kernel, mut leaf, mut batched, mut threads) = (None, None, None, None, None);
+    let (mut passes, mut batch_size) = (None, None);
     while let Some(flag) = cursor.next_flag()? {
         match flag.as_str() {
             "--mesh" => set_once(&mut mesh, &flag, cursor.path(&flag)?)?,
@@ -198,6 +209,8 @@ fn parse_query(cursor: &mut Cursor) -> Result<QueryArgs, CliError> {
             "--leaf" => set_once(&mut leaf, &flag, cursor.leaf_size(&flag)?)?,
             "--batched" => set_once(&mut batched, &flag, true)?,
             "--threads" => set_once(&mut threads, &flag, cursor.positive(&flag)?)?,
+            "--passes" => set_once(&mut passes, &flag, cursor.positive(&flag)?)?,
+            "--batch-size" => set_once(&mut batch_size, &flag, cursor.positive(&flag)?)?,
             _ => return Err(unknown_flag(&flag)),
         }
     }
@@ -211,6 +224,8 @@ fn parse_query(cursor: &mut Cursor) -> Result<QueryArgs, CliError> {
         leaf: leaf.unwrap_or(DEFAULT_LEAF),
         batched: batched.unwrap_or(false),
         threads,
+        passes,
+        batch_size,
     })
 }
 

@@ -25,6 +25,22 @@ impl JsonLine {
         self
     }
 
+    /// An array of numbers with 3 decimals (`null` for those that are not finite).
+    pub fn nums(mut self, key: &'static str, values: &[f64]) -> Self {
+        let rendered: Vec<String> = values
+            .iter()
+            .map(|v| {
+                if v.is_finite() {
+                    format!("{v:.3}")
+                } else {
+                    "null".to_string()
+                }
+            })
+            .collect();
+        self.fields.push((key, format!("[{}]", rendered.join(","))));
+        self
+    }
+
     pub fn str(mut self, key: &'static str, value: &str) -> Self {
         self.fields.push((key, quote(value)));
         self

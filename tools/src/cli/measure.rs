@@ -46,6 +46,48 @@ pub fn measure(rays: &[Ray], passes: usize, mut pass: impl FnMut(&[Ray]) -> usiz
     best
 }
 
+/// Every timed pass of [`measure_passes`].
+#[derive(Clone, Debug)]
+pub struct Passes {
+    /// Wall-clock seconds of each timed pass, in order.
+    pub seconds: Vec<f64>,
+    /// The median pass (seconds) with the set's size and hits.
+    pub median: Measurement,
+}
+
+/// Runs `pass` over `rays` once to warm up (caches, page faults, the thread's workspace), then
+/// `passes` more times (at least once), timing each; reports every pass and the median.
+pub fn measure_passes(
+    rays: &[Ray],
+    passes: usize,
+    mut pass: impl FnMut(&[Ray]) -> usize,
+) -> Passes {
+    black_box(pass(black_box(rays)));
+    let mut seconds = Vec::with_capacity(passes.max(1));
+    let mut hits = 0;
+    for _ in 0..passes.max(1) {
+        let start = Instant::now();
+        hits = black_box(pass(black_box(rays)));
+        seconds.push(start.elapsed().as_secs_f64());
+    }
+    let mut sorted = seconds.clone();
+    sorted.sort_by(f64::total_cmp);
+    let mid = sorted.len() / 2;
+    let median = if sorted.len() % 2 == 1 {
+        sorted[mid]
+    } else {
+        (sorted[mid - 1] + sorted[mid]) / 2.0
+    };
+    Passes {
+        seconds,
+        median: Measurement {
+            seconds: median,
+            rays: rays.len(),
+            hits,
+        },
+    }
+}
+
 /// Milliseconds taken by `f`, and its result.
 pub fn time_ms<R>(f: impl FnOnce() -> R) -> (R, f64) {
     let start = Instant::now();

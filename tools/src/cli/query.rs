@@ -5,8 +5,9 @@
 //! stderr as one JSON line, naming the engine (`per-ray` or `batched`) and the thread count.
 //!
 //! `--batched` answers through the batched engine (by-octant ordering, the CPU's fastest
-//! partition kernel); `--threads N` runs the query in a rayon pool of `N` threads (see
-//! [`crate::runner`]). Every combination writes the same bytes.
+//! partition kernel), in calls of `--batch-size` rays; `--threads N` runs the query in a rayon
+//! pool of `N` threads (see [`crate::runner`]); `--passes N` times N passes after a warm-up
+//! and reports their median. Every combination writes the same bytes.
 
 use std::path::Path;
 
@@ -18,7 +19,7 @@ use crate::error::CliError;
 use crate::formats::{encode_closest, encode_occluded};
 use crate::inputs::{load_mesh, read_rays};
 use crate::json::JsonLine;
-use crate::measure::{Measurement, measure, time_ms};
+use crate::measure::{Measurement, measure, measure_passes, time_ms};
 use crate::runner::{Engine, Query, QueryKind, QueryRunner};
 
 /// What answering the rays produced.
@@ -26,7 +27,10 @@ struct Answers {
     /// The output file's contents.
     bytes: Vec<u8>,
     build_ms: f64,
+    /// The median pass with `--passes`, else the one pass.
     query: Measurement,
+    /// Seconds of every timed pass (empty without `--passes`).
+    passes: Vec<f64>,
     engine: Engine,
     threads: usize,
 }
@@ -72,7 +76,13 @@ fn answer(mesh: Mesh, rays: &[Ray], args: &QueryArgs) -> Result<Answers, CliErro
             query.thread_count()
         ))
     })?;
-    let measurement = measure(rays, 1, |chunk| runner.run(chunk));
+    let (measurement, passes) = match args.passes {
+        Some(n) => {
+            let passes = measure_passes(rays, n, |chunk| runner.run(chunk));
+            (passes.median, passes.seconds)
+        }
+        None => (measure(rays, 1, |chunk| runner.run(chunk)), Vec::new()),
+    };
     let bytes = match args.kind {
         QueryKind::Closest => encode_closest(runner.closest()),
         QueryKind::Any => encode_occluded(runner.occluded()),
@@ -81,6 +91,7 @@ fn answer(mesh: Mesh, rays: &[Ray], args: &QueryArgs) -> Result<Answers, CliErro
         bytes,
         build_ms,
         query: measurement,
+        passes,
         engine: query.engine,
         threads: query.thread_count(),
     })
@@ -93,15 +104,18 @@ fn query_for(args: &QueryArgs) -> Query {
     } else {
         Engine::PerRay
     };
-    let query = Query::new(args.kind, args.kernel, engine);
-    match args.threads {
-        Some(n) => query.with_threads(n),
-        None => query,
+    let mut query = Query::new(args.kind, args.kernel, engine);
+    if let Some(n) = args.threads {
+        query = query.with_threads(n);
     }
+    if let Some(n) = args.batch_size {
+        query = query.with_batch_size(n);
+    }
+    query
 }
 
 fn report(args: &QueryArgs, triangles: usize, answers: &Answers) -> JsonLine {
-    JsonLine::default()
+    let line = JsonLine::default()
         .int("rays", answers.query.rays)
         .int("triangles", triangles)
         .str("tree", args.tree.name())
@@ -112,5 +126,14 @@ fn report(args: &QueryArgs, triangles: usize, answers: &Answers) -> JsonLine {
         .num("build_ms", answers.build_ms)
         .num("query_ms", answers.query.seconds * 1e3)
         .num("mrays_per_s", answers.query.mrays_per_s())
-        .int("hits", answers.query.hits)
+        .int("hits", answers.query.hits);
+    match (args.passes, args.batch_size) {
+        (None, None) => line,
+        _ => {
+            let passes_ms: Vec<f64> = answers.passes.iter().map(|s| s * 1e3).collect();
+            line.int("passes", passes_ms.len())
+                .nums("passes_ms", &passes_ms)
+                .int("batch_size", args.batch_size.unwrap_or(answers.query.rays))
+        }
+    }
 }

@@ -80,6 +80,8 @@ pub struct Query {
     pub engine: Engine,
     /// Threads to run on (see the module docs); `None`: the engine's default.
     pub threads: Option<usize>,
+    /// Rays per call of the batched engine (`None`: all rays in one call).
+    pub batch_size: Option<usize>,
 }
 
 impl Query {
@@ -90,7 +92,21 @@ impl Query {
             kernel,
             engine,
             threads: None,
+            batch_size: None,
         }
+    }
+
+    /// The same query with the batched engine called on `batch_size` rays at a time.
+    pub fn with_batch_size(self, batch_size: usize) -> Self {
+        Self {
+            batch_size: Some(batch_size.max(1)),
+            ..self
+        }
+    }
+
+    /// Rays per call of the batched engine for a set of `n` rays.
+    fn calls_of(&self, n: usize) -> usize {
+        self.batch_size.unwrap_or(n).max(1)
     }
 
     /// The same query on `threads` threads (at least 1).
@@ -230,8 +246,11 @@ impl Answers {
             Engine::PerRay => self.closest.extend(rays.iter().map(answer)),
             Engine::Batched { .. } => {
                 self.closest.resize(rays.len(), None);
-                tree.cast_rays_with(rays, &mut self.closest, &query.batch_options())
-                    .expect("one answer slot per ray");
+                let (options, size) = (query.batch_options(), query.calls_of(rays.len()));
+                for (rays, hits) in rays.chunks(size).zip(self.closest.chunks_mut(size)) {
+                    tree.cast_rays_with(rays, hits, &options)
+                        .expect("one answer slot per ray");
+                }
             }
         }
     }
@@ -247,8 +266,11 @@ impl Answers {
             Engine::PerRay => self.occluded.extend(rays.iter().map(answer)),
             Engine::Batched { .. } => {
                 self.occluded.resize(rays.len(), false);
-                tree.occluded_batch_with(rays, &mut self.occluded, &query.batch_options())
-                    .expect("one answer slot per ray");
+                let (options, size) = (query.batch_options(), query.calls_of(rays.len()));
+                for (rays, out) in rays.chunks(size).zip(self.occluded.chunks_mut(size)) {
+                    tree.occluded_batch_with(rays, out, &options)
+                        .expect("one answer slot per ray");
+                }
             }
         }
     }
