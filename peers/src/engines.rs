@@ -553,7 +553,8 @@ mod tests {
             }
             runs.push(raybatch_batched(kind, &mesh, &rays, 1, true).unwrap());
         }
-        runs.extend(embree(&device, &mesh, &rays, 1, true).unwrap());
+        runs.extend(embree(&device, &mesh, &rays, 1, true, false).unwrap());
+        runs.extend(embree(&device, &mesh, &rays, 1, true, true).unwrap());
         runs.push(obvhs_cwbvh(&mesh, &rays, 1, true));
         runs.push(obvhs_bvh2(&mesh, &rays, 1, true));
         runs.push(parry(&mesh, &rays, 1, true).unwrap());
