@@ -7,7 +7,7 @@
 //! type that a thread queries shares it (a box cache must therefore tag its entries by tree).
 //! A query issued from inside another one's callback on the same thread gets a fresh workspace.
 
-use std::any::Any;
+use std::any::{Any, TypeId};
 use std::cell::RefCell;
 
 use crate::batch::scratch::BatchScratch;
@@ -17,8 +17,9 @@ use crate::batch::scratch::BatchScratch;
 pub struct Workspace {
     /// The batched engine's lanes and answer arrays.
     pub(crate) batch: BatchScratch,
-    /// One scratch value per structure type, looked up by type (few entries: a linear scan).
-    scratch: Vec<Box<dyn Any + Send>>,
+    /// One scratch value per structure type with its type's id, looked up by a linear scan
+    /// (few entries) that compares ids without calling through the trait object.
+    scratch: Vec<(TypeId, Box<dyn Any + Send>)>,
 }
 
 thread_local! {
@@ -47,14 +48,16 @@ impl Workspace {
 
     /// The batched engine's arrays and the scratch of type `S`, both at once.
     pub(crate) fn parts<S: Default + Send + 'static>(&mut self) -> (&mut BatchScratch, &mut S) {
-        let index = match self.scratch.iter().position(|s| s.is::<S>()) {
+        let id = TypeId::of::<S>();
+        let index = match self.scratch.iter().position(|(t, _)| *t == id) {
             Some(index) => index,
             None => {
-                self.scratch.push(Box::new(S::default()));
+                self.scratch.push((id, Box::new(S::default())));
                 self.scratch.len() - 1
             }
         };
         let scratch = self.scratch[index]
+            .1
             .downcast_mut::<S>()
             .unwrap_or_else(|| unreachable!("the entry was found or created with type S"));
         (&mut self.batch, scratch)

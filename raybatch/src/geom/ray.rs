@@ -7,7 +7,7 @@
 //! Queries never panic on a bad ray: a ray whose origin or direction is NaN or infinite, whose
 //! direction is zero, or whose range is empty or NaN misses everything. [`Ray::validate`] says why.
 
-use glam::Vec3;
+use glam::{Vec3, Vec3A};
 
 /// A ray `origin + t * dir` for `t` in `[tmin, tmax]`.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -154,16 +154,30 @@ pub struct PreparedRay {
 
 impl PreparedRay {
     /// Precomputes the kernel constants; `None` if the ray is invalid (it misses everything).
+    /// The same checks as [`Ray::validate`], written to flush the direction once.
+    #[inline]
     pub fn new(ray: &Ray) -> Option<Self> {
-        ray.validate().ok()?;
-        Some(Self::from_valid(ray))
+        if !ray.origin.is_finite() || !ray.dir.is_finite() {
+            return None;
+        }
+        let dir = flush_subnormals(ray.dir);
+        let range_ok = ray.tmin >= 0.0 && ray.tmin <= ray.tmax && ray.tmin.is_finite();
+        if dir == Vec3::ZERO || !range_ok {
+            return None;
+        }
+        Some(Self::from_flushed(ray, dir))
     }
 
     /// [`PreparedRay::new`] for a ray the caller has already validated (the batched engine
     /// validates while grouping rays, and does not repeat it).
     pub(crate) fn from_valid(ray: &Ray) -> Self {
         debug_assert!(ray.is_valid());
-        let dir = flush_subnormals(ray.dir);
+        Self::from_flushed(ray, flush_subnormals(ray.dir))
+    }
+
+    /// The constants of a valid ray whose direction, subnormals flushed, is `dir`.
+    #[inline]
+    fn from_flushed(ray: &Ray, dir: Vec3) -> Self {
         let abs = dir.abs();
         let kz = if abs.x >= abs.y && abs.x >= abs.z {
             0
@@ -175,9 +189,15 @@ impl PreparedRay {
         // Woop et al. swap kx and ky when dir[kz] < 0 to keep the projected winding; since both
         // windings are accepted, that swap only negates U, V, W, det and T exactly, leaving
         // t, u, v bit-identical, so it is skipped and the axes depend on kz alone.
-        let (kx, ky) = ((kz + 1) % 3, (kz + 2) % 3);
-        let shear = Vec3::new(dir[kx] / dir[kz], dir[ky] / dir[kz], 1.0 / dir[kz]);
-        let inv_dir = Vec3::ONE / dir;
+        // (kx, ky, kz) = (kz + 1, kz + 2, kz) mod 3.
+        let (x, y, z) = match kz {
+            0 => (dir.y, dir.z, dir.x),
+            1 => (dir.z, dir.x, dir.y),
+            _ => (dir.x, dir.y, dir.z),
+        };
+        let shear = Vec3::new(x / z, y / z, 1.0 / z);
+        // One vector division; the same IEEE quotients as three scalar ones.
+        let inv_dir = Vec3::from(Vec3A::ONE / Vec3A::from(dir));
         Self {
             origin: ray.origin,
             dir,
