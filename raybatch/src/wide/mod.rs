@@ -5,6 +5,7 @@
 //! - [`node`]: the node layout and the 4-lane box test (identical, lane by lane, to the scalar
 //!   slab test).
 //! - [`collapse`]: binary tree to 4-wide tree.
+//! - [`dispatch`]: the one-ray loop's baseline and AVX2 copies, picked at run time.
 //! - `simd`: the box test with SSE intrinsics on x86-64 (its portable twin is in [`node`]).
 //! - [`single`]: the one-ray loop, nearest child first by entry distance.
 //! - [`stream`]: a stream of rays going down once, partitioned against each child box.
@@ -14,6 +15,8 @@
 //! every other structure, bit for bit.
 
 pub(crate) mod collapse;
+#[allow(unsafe_code)]
+pub(crate) mod dispatch;
 pub mod node;
 #[cfg(target_arch = "x86_64")]
 #[allow(unsafe_code)]
@@ -112,7 +115,7 @@ impl Accel for WideTree {
         scratch: &mut WideScratch,
         visitor: &mut V,
     ) -> f32 {
-        single::trace::<K, V>(self, ray, id, &mut scratch.stack, visitor)
+        dispatch::trace::<K, V>(self, ray, id, &mut scratch.stack, visitor)
     }
 
     fn trace_stream<K: TriangleTest, V: Visitor>(
@@ -147,12 +150,55 @@ impl Footprint for WideTree {
 mod tests {
     use super::*;
     use crate::bvh::AabbTree;
+    use crate::geom::Watertight;
     use crate::query::{BatchQueries, RayQueries};
     use crate::test_support::{bunny, random_rays};
     use crate::{BatchOptions, Hit, Kernel};
 
     fn bits(h: Option<Hit>) -> Option<(u32, u32, u32, u32)> {
         h.map(|h| (h.triangle, h.t.to_bits(), h.u.to_bits(), h.v.to_bits()))
+    }
+
+    /// The run-time dispatched loop (AVX2 where available) and the baseline one agree bit for
+    /// bit.
+    #[test]
+    fn dispatched_and_portable_loops_agree() {
+        #[cfg(target_arch = "x86_64")]
+        if !std::arch::is_x86_feature_detected!("avx2") {
+            // Written to stderr directly so the test harness shows it even on success.
+            let _ = std::io::Write::write_all(
+                &mut std::io::stderr(),
+                b"note: this CPU lacks AVX2: the dispatched wide loop is the portable one\n",
+            );
+        }
+        let mesh = Arc::new(bunny());
+        let tree = WideTree::build(mesh.clone(), &BuildOptions::default()).unwrap();
+        let mut stack = Vec::new();
+        for ray in random_rays(&mesh, 20_000, 8) {
+            let prepared = PreparedRay::new(&ray).unwrap();
+            let mut answers = [Hit::none_before(prepared.tmax); 2];
+            for (k, answer) in answers.iter_mut().enumerate() {
+                let mut best = [Hit::none_before(prepared.tmax)];
+                let mut closest = crate::hit::Closest { best: &mut best };
+                if k == 0 {
+                    dispatch::trace::<Watertight, _>(&tree, &prepared, 0, &mut stack, &mut closest);
+                } else {
+                    dispatch::trace_portable::<Watertight, _>(
+                        &tree,
+                        &prepared,
+                        0,
+                        &mut stack,
+                        &mut closest,
+                    );
+                }
+                *answer = best[0];
+            }
+            assert_eq!(
+                bits(answers[0].found()),
+                bits(answers[1].found()),
+                "{ray:?}"
+            );
+        }
     }
 
     /// Same answers as the binary tree it was collapsed from, per ray and batched, for every
