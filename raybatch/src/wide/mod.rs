@@ -46,6 +46,8 @@ pub struct WideTree {
     root_bounds: Aabb,
     /// Leaf slots to triangle ids.
     triangle_order: Vec<u32>,
+    /// Corners of each slot's triangle, if [`BuildOptions::leaf_corners`] (else empty).
+    corners: Vec<[Vec3; 3]>,
     /// Longest root-to-leaf path, in wide nodes.
     depth: usize,
 }
@@ -58,14 +60,20 @@ impl WideTree {
         let built = build(&mesh, options)?;
         let root_bounds = built.nodes.first().map_or(Aabb::EMPTY, |n| n.bounds);
         let (nodes, root) = collapse::collapse(&built).unwrap_or((Vec::new(), 0));
-        let depth = built.depth;
+        let corners = if options.leaf_corners {
+            let corners = |&id: &u32| mesh.triangle(id);
+            built.triangle_order.iter().map(corners).collect()
+        } else {
+            Vec::new()
+        };
         Ok(Self {
             mesh,
             nodes,
             root,
             root_bounds,
             triangle_order: built.triangle_order,
-            depth,
+            corners,
+            depth: built.depth,
         })
     }
 
@@ -83,7 +91,10 @@ impl WideTree {
     #[inline(always)]
     fn triangle(&self, slot: u32) -> (u32, [Vec3; 3]) {
         let id = self.triangle_order[slot as usize];
-        (id, self.mesh.triangle(id))
+        match self.corners.get(slot as usize) {
+            Some(corners) => (id, *corners),
+            None => (id, self.mesh.triangle(id)),
+        }
     }
 }
 
@@ -142,7 +153,9 @@ impl Footprint for WideTree {
     }
 
     fn heap_bytes(&self) -> usize {
-        self.nodes.len() * size_of::<WideNode>() + self.triangle_order.len() * size_of::<u32>()
+        self.nodes.len() * size_of::<WideNode>()
+            + self.triangle_order.len() * size_of::<u32>()
+            + self.corners.len() * size_of::<[Vec3; 3]>()
     }
 }
 
@@ -202,13 +215,16 @@ mod tests {
     }
 
     /// Same answers as the binary tree it was collapsed from, per ray and batched, for every
-    /// leaf size (the brute-force comparisons live in the integration tests' zoo).
+    /// leaf size, with and without the leaf-ordered corner copy (the brute-force comparisons
+    /// live in the integration tests' zoo).
     #[test]
     fn answers_equal_the_binary_tree() {
         let mesh = Arc::new(bunny());
         let rays = random_rays(&mesh, 20_000, 5);
-        for leaf in [1, 4, 16] {
-            let options = BuildOptions::default().with_leaf_size(leaf);
+        for (leaf, corners) in [(1, false), (4, false), (4, true), (16, false)] {
+            let options = BuildOptions::default()
+                .with_leaf_size(leaf)
+                .with_leaf_corners(corners);
             let wide = WideTree::build(mesh.clone(), &options).unwrap();
             let binary: AabbTree = AabbTree::build(mesh.clone(), &options).unwrap();
             let mut batched = vec![None; rays.len()];

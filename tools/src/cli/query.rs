@@ -66,7 +66,9 @@ fn check_output_path(out: &Path) -> Result<(), CliError> {
 
 /// Builds the structure `--tree` names and answers every ray.
 fn answer(mesh: Mesh, rays: &[Ray], args: &QueryArgs) -> Result<Answers, CliError> {
-    let options = BuildOptions::default().with_leaf_size(args.leaf);
+    let options = BuildOptions::default()
+        .with_leaf_size(args.leaf)
+        .with_leaf_corners(args.leaf_corners);
     let (tree, build_ms) = time_ms(|| args.tree.build(mesh, &options));
     let tree = tree.map_err(|e| CliError::input(format!("{}: {e}", args.mesh.display())))?;
     let query = query_for(args);
