@@ -57,6 +57,16 @@ impl AccelKind {
         }
     }
 
+    /// Whether the structure follows [`BuildOptions::ordering`] (the binary trees' child-order
+    /// byte); the 4-wide tree orders children by distance at run time instead, so building it
+    /// with another ordering gives the same structure.
+    pub fn uses_child_ordering(self) -> bool {
+        match self {
+            AccelKind::Aabb | AccelKind::Quantized => true,
+            AccelKind::Bvh4 => false,
+        }
+    }
+
     /// The kind called `name` (see [`AccelKind::name`]).
     pub fn from_name(name: &str) -> Option<Self> {
         Self::ALL.into_iter().find(|k| k.name() == name)
