@@ -1,11 +1,12 @@
 //! The README's example, compiled: `cargo run --release --example quickstart`.
 
 use raybatch::glam::Vec3;
-use raybatch::{AabbTree, BatchQueries, BuildOptions, Hit, Mesh, Ray, RayQueries};
+use raybatch::{BatchQueries, BuildOptions, Hit, Mesh, Ray, RayQueries, WideTree};
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mesh = Mesh::load_obj("data/stanford-bunny.obj")?;
-    let tree: AabbTree = AabbTree::build(mesh, &BuildOptions::default())?;
+    // The 4-wide tree, the fastest per ray; `AabbTree`, `QuantizedAabbTree` answer the same.
+    let tree = WideTree::build(mesh, &BuildOptions::default())?;
 
     // One ray at a time.
     let ray = Ray::new(Vec3::new(0.0, 0.1, 1.0), Vec3::new(0.0, 0.0, -1.0));
