@@ -56,57 +56,60 @@ fn check_lengths(rays: usize, outputs: usize) -> Result<(), BatchError> {
     }
 }
 
-/// The rays of one chunk, prepared into the thread's workspace: the groups, their lanes, the
-/// structure's scratch and the closest-hit answer array.
+/// The rays of one chunk, prepared into the thread's workspace: the groups, their lanes and
+/// the structure's scratch, with the call's options.
 struct Chunk<'w, S> {
     groups: Groups,
     lanes: &'w mut Lanes,
     scratch: &'w mut S,
-    best: &'w mut Vec<Hit>,
+    options: &'w BatchOptions,
+    partitioner: Partitioner,
 }
 
-/// Prepares `rays` in this thread's workspace and runs `f` on them.
+impl<S> Chunk<'_, S> {
+    /// Hands each group to [`Accel::trace_stream`] with `visitor`.
+    fn trace<A: Accel<Scratch = S>, V: Visitor>(&mut self, accel: &A, visitor: &mut V) {
+        let options = self.options;
+        for (start, end, octant_mask) in self.groups.iter() {
+            let partitioner = self.partitioner;
+            let mut stream =
+                RayStream::new(self.lanes, start, end, octant_mask, partitioner, options);
+            // Rays of a group have different dominant axes, so the watertight kernel dispatches
+            // per ray (`Watertight` calls the same `WatertightAxis` function as the single-ray
+            // path).
+            match options.kernel {
+                Kernel::Watertight => {
+                    accel.trace_stream::<Watertight, V>(&mut stream, self.scratch, visitor)
+                }
+                Kernel::MollerTrumbore => {
+                    accel.trace_stream::<MollerTrumbore, V>(&mut stream, self.scratch, visitor)
+                }
+            }
+        }
+    }
+}
+
+/// Prepares `rays` in this thread's workspace and runs `f` on them and on the workspace's
+/// closest-hit answer array.
 fn with_chunk<A: Accel, R>(
     rays: &[Ray],
     options: &BatchOptions,
-    f: impl FnOnce(Chunk<'_, A::Scratch>) -> R,
+    partitioner: Partitioner,
+    f: impl FnOnce(Chunk<'_, A::Scratch>, &mut Vec<Hit>) -> R,
 ) -> R {
     Workspace::with_local(|workspace| {
         let (batch, scratch) = workspace.parts::<A::Scratch>();
         let BatchScratch { lanes, best, keys } = batch;
         let groups = group::prepare(rays, options.ordering, lanes, keys);
-        f(Chunk {
+        let chunk = Chunk {
             groups,
             lanes,
             scratch,
-            best,
-        })
+            options,
+            partitioner,
+        };
+        f(chunk, best)
     })
-}
-
-/// Hands each group of a prepared chunk to [`Accel::trace_stream`].
-fn trace_groups<A: Accel, V: Visitor>(
-    accel: &A,
-    groups: &Groups,
-    lanes: &mut Lanes,
-    scratch: &mut A::Scratch,
-    options: &BatchOptions,
-    partitioner: Partitioner,
-    visitor: &mut V,
-) {
-    for (start, end, octant_mask) in groups.iter() {
-        let mut stream = RayStream::new(lanes, start, end, octant_mask, partitioner, options);
-        // Rays of a group have different dominant axes, so the watertight kernel dispatches per
-        // ray (`Watertight` calls the same `WatertightAxis` function as the single-ray path).
-        match options.kernel {
-            Kernel::Watertight => {
-                accel.trace_stream::<Watertight, V>(&mut stream, scratch, visitor)
-            }
-            Kernel::MollerTrumbore => {
-                accel.trace_stream::<MollerTrumbore, V>(&mut stream, scratch, visitor)
-            }
-        }
-    }
 }
 
 /// The batched queries, for every [`Accel`]. Output slices must be as long as `rays`.
@@ -133,20 +136,11 @@ pub trait BatchQueries: Accel {
         }
         let partitioner = options.partition.checked();
         for_each_chunk(rays, hits, options, |_, rays, hits| {
-            with_chunk::<Self, _>(rays, options, |c| {
-                c.best.clear();
-                c.best.extend(rays.iter().map(|r| Hit::none_before(r.tmax)));
-                let mut closest = Closest { best: c.best };
-                trace_groups(
-                    self,
-                    &c.groups,
-                    c.lanes,
-                    c.scratch,
-                    options,
-                    partitioner,
-                    &mut closest,
-                );
-                for (out, best) in hits.iter_mut().zip(c.best.iter()) {
+            with_chunk::<Self, _>(rays, options, partitioner, |mut chunk, best| {
+                best.clear();
+                best.extend(rays.iter().map(|r| Hit::none_before(r.tmax)));
+                chunk.trace(self, &mut Closest { best });
+                for (out, best) in hits.iter_mut().zip(best.iter()) {
                     *out = best.found();
                 }
             })
@@ -177,17 +171,8 @@ pub trait BatchQueries: Accel {
         let partitioner = options.partition.checked();
         for_each_chunk(rays, occluded, options, |_, rays, occluded| {
             occluded.fill(false);
-            with_chunk::<Self, _>(rays, options, |c| {
-                let mut any = Any { occluded };
-                trace_groups(
-                    self,
-                    &c.groups,
-                    c.lanes,
-                    c.scratch,
-                    options,
-                    partitioner,
-                    &mut any,
-                );
+            with_chunk::<Self, _>(rays, options, partitioner, |mut chunk, _| {
+                chunk.trace(self, &mut Any { occluded });
             })
         });
         Ok(())
@@ -217,17 +202,8 @@ pub trait BatchQueries: Accel {
         // No output slice: chunks are matched with zero-sized slots.
         let mut slots = vec![(); rays.len()];
         for_each_chunk(rays, &mut slots, options, |offset, rays, _| {
-            with_chunk::<Self, _>(rays, options, |c| {
-                let mut every = Every { offset, f: &f };
-                trace_groups(
-                    self,
-                    &c.groups,
-                    c.lanes,
-                    c.scratch,
-                    options,
-                    partitioner,
-                    &mut every,
-                );
+            with_chunk::<Self, _>(rays, options, partitioner, |mut chunk, _| {
+                chunk.trace(self, &mut Every { offset, f: &f });
             })
         });
     }
