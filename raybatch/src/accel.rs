@@ -134,35 +134,48 @@ impl<'a> RayStream<'a> {
         self.octant_mask
     }
 
+    /// The lane of ray `i`; panics if `i >= len()` (the lanes beyond belong to other streams).
+    #[inline(always)]
+    fn lane(&self, i: usize) -> usize {
+        assert!(i < self.len(), "ray {i} of a stream of {}", self.len());
+        self.start + i
+    }
+
     /// Ray `i`, bit for bit as prepared, with its current range end.
     #[inline(always)]
     pub fn ray(&self, i: usize) -> PreparedRay {
-        self.lanes.ray(self.start + i)
+        self.lanes.ray(self.lane(i))
     }
 
     /// The position of ray `i` in the caller's batch (what visitors receive).
     #[inline(always)]
     pub fn id(&self, i: usize) -> u32 {
-        self.lanes.id(self.start + i)
+        self.lanes.id(self.lane(i))
     }
 
     /// Current range end of ray `i` (`-inf` once the ray is done).
     #[inline(always)]
     pub fn tmax(&self, i: usize) -> f32 {
-        self.lanes.tmax(self.start + i)
+        self.lanes.tmax(self.lane(i))
     }
 
     /// Sets the range end of ray `i`.
     #[inline(always)]
     pub fn set_tmax(&mut self, i: usize, tmax: f32) {
-        self.lanes.set_tmax(self.start + i, tmax)
+        let lane = self.lane(i);
+        self.lanes.set_tmax(lane, tmax)
     }
 
     /// Tests rays `0..count` against `bounds` with the conservative slab test, moves those that
-    /// touch it to the front (keeping their order), and returns how many there are.
+    /// touch it to the front (keeping their order), and returns how many there are. Panics if
+    /// `count > len()`.
     #[inline]
     pub fn partition(&mut self, count: usize, bounds: &Aabb) -> usize {
-        debug_assert!(count <= self.len());
+        assert!(
+            count <= self.len(),
+            "{count} rays of a stream of {}",
+            self.len()
+        );
         self.partitioner
             .run(self.lanes, bounds, self.start, self.start + count)
     }

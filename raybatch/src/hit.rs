@@ -63,6 +63,7 @@ const NO_TRIANGLE: u32 = u32::MAX;
 /// range end, owned by the structure: a visitor shrinks it to make the structure skip what lies
 /// behind (a closest-hit search sets it to the best `t`), or sets it to `-inf` to end the ray (an
 /// any-hit search, or "first N hits"), after which the structure reports nothing more for it.
+/// A visitor never raises `tmax`: structures skip what lies behind it as soon as it shrinks.
 /// Hits are reported in no particular order; a visitor must not depend on it.
 pub trait Visitor {
     /// Called for each hit of ray `ray` with `hit.t <= *tmax`.

@@ -57,4 +57,4 @@ pub use hit::{Hit, Visitor};
 pub use mesh::{Mesh, MeshError};
 pub use query::{BatchError, BatchQueries, RayQueries};
 pub use wide::WideTree;
-pub use workspace::Workspace;
+pub use workspace::{StructureId, Workspace};

@@ -1,31 +1,24 @@
-//! Helpers shared by the unit tests: one seeded random generator, the bunny, random rays.
+//! Helpers shared by the unit tests: the seeded random generator, the bunny, random rays.
 
 use glam::Vec3;
+use rand::rngs::StdRng;
+use rand::{RngExt, SeedableRng};
 
 use crate::geom::Ray;
 use crate::mesh::Mesh;
 
-/// SplitMix64: a small seeded generator, so unit tests need no dependency and every run draws
-/// the same numbers.
-pub(crate) struct TestRng(u64);
+/// The unit tests' seeded generator: rand's `StdRng`, the generator the integration tests use
+/// too (`tests/common/rng.rs`), so every run draws the same numbers.
+pub(crate) struct TestRng(StdRng);
 
 impl TestRng {
     pub(crate) fn new(seed: u64) -> Self {
-        Self(seed)
-    }
-
-    pub(crate) fn next_u64(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9e37_79b9_7f4a_7c15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
-        z ^ (z >> 31)
+        Self(StdRng::seed_from_u64(seed))
     }
 
     /// Uniform in `[lo, hi)`.
     pub(crate) fn range(&mut self, lo: f32, hi: f32) -> f32 {
-        let unit = (self.next_u64() >> 40) as f32 / (1u64 << 24) as f32;
-        lo + (hi - lo) * unit
+        self.0.random_range(lo..hi)
     }
 
     /// Uniform in the cube `[-r, r)^3`.

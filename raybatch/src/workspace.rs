@@ -9,6 +9,7 @@
 
 use std::any::{Any, TypeId};
 use std::cell::RefCell;
+use std::sync::atomic::{AtomicU64, Ordering};
 
 use crate::batch::scratch::BatchScratch;
 
@@ -64,6 +65,31 @@ impl Workspace {
     }
 }
 
+/// A process-unique id for a structure, to tag the entries of a per-thread cache shared by
+/// every structure of one type (the zero-byte tree's box cache): ids are never reused, so a
+/// dropped or rebuilt structure can never match a stale entry, as its address could.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct StructureId(u64);
+
+impl StructureId {
+    /// A new id, different from every other id of the process.
+    pub fn new() -> Self {
+        static NEXT: AtomicU64 = AtomicU64::new(1);
+        Self(NEXT.fetch_add(1, Ordering::Relaxed))
+    }
+
+    /// The id as a number (never 0, so 0 can mark an empty cache entry).
+    pub fn get(self) -> u64 {
+        self.0
+    }
+}
+
+impl Default for StructureId {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -75,6 +101,16 @@ mod tests {
         *w.scratch::<u64>() = 3;
         assert_eq!(w.scratch::<Vec<u32>>(), &[7]);
         assert_eq!(*w.scratch::<u64>(), 3);
+    }
+
+    #[test]
+    fn structure_ids_are_unique_and_never_zero() {
+        let ids: Vec<u64> = (0..1000).map(|_| StructureId::new().get()).collect();
+        let mut sorted = ids.clone();
+        sorted.sort_unstable();
+        sorted.dedup();
+        assert_eq!(sorted.len(), ids.len());
+        assert!(!ids.contains(&0));
     }
 
     #[test]

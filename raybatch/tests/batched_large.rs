@@ -20,7 +20,7 @@ use rayon::prelude::*;
 
 /// 100,000 rays (the hard rays of an icosphere with duplicates, then random rays through its
 /// bounds, some with `tmin = 0.3 tmax`) on three structures of each kind (each leaf size and
-/// each ordering once per kind, six with two kinds): every query with one combination, closest
+/// each ordering once per kind, nine with three kinds): every query with one combination, closest
 /// and any hit with another.
 #[test]
 fn hundred_thousand_rays() {

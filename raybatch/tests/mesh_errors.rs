@@ -5,7 +5,7 @@ use glam::Vec3;
 use proptest::prelude::*;
 use raybatch::mesh::obj::{ObjError, ObjErrorKind};
 use raybatch::mesh::{MAX_COORDINATE, MAX_TRIANGLES};
-use raybatch::{AabbTree, BuildError, BuildOptions, Mesh, MeshError, QuantizedAabbTree};
+use raybatch::{AabbTree, AccelKind, BuildError, BuildOptions, Mesh, MeshError, QuantizedAabbTree};
 
 fn tri() -> Vec<Vec3> {
     vec![Vec3::ZERO, Vec3::X, Vec3::Y]
@@ -266,6 +266,14 @@ fn bad_leaf_sizes() {
                 QuantizedAabbTree::build(m.clone(), &options).err(),
                 Some(BuildError::BadLeafSize(leaf))
             );
+            for kind in AccelKind::ALL {
+                assert_eq!(
+                    kind.build(m.clone(), &options).err(),
+                    Some(BuildError::BadLeafSize(leaf)),
+                    "{}",
+                    kind.name()
+                );
+            }
             assert!(
                 BuildError::BadLeafSize(leaf)
                     .to_string()
@@ -276,6 +284,9 @@ fn bad_leaf_sizes() {
             let options = BuildOptions::default().with_leaf_size(leaf);
             assert!(<AabbTree>::build(m.clone(), &options).is_ok());
             assert!(QuantizedAabbTree::build(m.clone(), &options).is_ok());
+            for kind in AccelKind::ALL {
+                assert!(kind.build(m.clone(), &options).is_ok(), "{}", kind.name());
+            }
         }
     }
 }

@@ -174,7 +174,7 @@ fn closest_hits_match_brute_force() {
     let rays = test_rays();
     let (mesh_path, rays_path) = write_inputs(&dir, &rays);
     let mesh = Mesh::from_obj_str(OBJ).unwrap();
-    for tree in ["aabb", "quantized"] {
+    for tree in raybatch::AccelKind::ALL.map(|k| k.name()) {
         for kernel in Kernel::ALL {
             let out = dir.path(&format!("hits-{tree}-{}.bin", kernel.name()));
             let extra = [
@@ -277,11 +277,11 @@ fn batched_and_threaded_output_equals_per_ray_output() {
     let dir = TempDir::new("batched");
     let rays = many_rays();
     let (mesh, rays_path) = write_inputs(&dir, &rays);
-    for (kind, tree) in [
-        ("closest", "aabb"),
-        ("any", "aabb"),
-        ("closest", "quantized"),
-    ] {
+    let kinds = raybatch::AccelKind::ALL.map(|k| k.name());
+    let pairs = kinds
+        .iter()
+        .flat_map(|&tree| [("closest", tree), ("any", tree)]);
+    for (kind, tree) in pairs {
         let base = ["--kind", kind, "--tree", tree];
         let (expected, line) = query_ok(&dir, &mesh, &rays_path, &base);
         assert_eq!(json_str(&line, "engine"), Some("per-ray"), "{line}");

@@ -79,7 +79,9 @@ impl Node {
 ///
 /// Contract the traversals rely on: every node's box contains its triangles' bounding boxes and
 /// its children's boxes (boxes may be larger than tight, never smaller); child indices are
-/// below [`Bvh::node_count`] and every path from the root is at most [`Bvh::depth`] nodes long.
+/// below [`Bvh::len`] and every path from the root is at most [`Bvh::depth`] nodes long.
+/// Children come in pairs; a node with one child pads the pair with a node whose box is
+/// [`Aabb::EMPTY`] (no ray enters it, so its contents are never read).
 pub trait Bvh: Sync {
     /// Per-thread state box reads need (the zero-byte tree's box cache); `()` for stored boxes.
     type Cache: Default + Send + 'static;
@@ -88,10 +90,16 @@ pub trait Bvh: Sync {
     /// (measured per node format: it speeds up full nodes and slows down quantized ones).
     const AVX2_TRAVERSAL: bool = true;
 
-    /// Number of nodes (0 for an empty tree).
-    fn node_count(&self) -> usize;
+    /// Number of nodes (0 for an empty tree). (`Footprint::node_count` says the same for
+    /// tables; this one is what traversal needs.)
+    fn len(&self) -> usize;
 
-    /// The box of node `index` (< `node_count()`).
+    /// True if the tree has no node: every ray misses.
+    fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    /// The box of node `index` (< `len()`).
     fn bounds(&self, index: u32, cache: &mut Self::Cache) -> Aabb;
 
     /// The boxes of the children `first_child` and `first_child + 1` (a format that stores a
@@ -104,7 +112,7 @@ pub trait Bvh: Sync {
         ]
     }
 
-    /// The contents of node `index` (< `node_count()`).
+    /// The contents of node `index` (< `len()`).
     fn node(&self, index: u32) -> Node;
 
     /// Triangle slot `slot`: its id in the mesh and its corners.

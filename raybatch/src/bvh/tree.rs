@@ -77,7 +77,7 @@ impl<N: NodeFormat> Bvh for AabbTree<N> {
     type Cache = ();
     const AVX2_TRAVERSAL: bool = N::AVX2_TRAVERSAL;
 
-    fn node_count(&self) -> usize {
+    fn len(&self) -> usize {
         self.nodes.node_count()
     }
 

@@ -37,6 +37,12 @@ pub struct TriangleHit {
 
 /// A ray/triangle kernel, chosen at compile time inside the traversal loops.
 pub trait TriangleTest: Copy + Send + Sync + 'static {
+    /// The same kernel for rays of any dominant axis. The watertight kernel comes in per-axis
+    /// variants ([`WatertightAxis`]) that require `ray.kz` to match; a structure that traces a
+    /// ray of its own making (a scene's instance transforms the ray, and its dominant axis may
+    /// change) must use `K::AnyAxis` for it. Both give identical answers.
+    type AnyAxis: TriangleTest;
+
     /// The hit of `ray` with the triangle `tri` for `t` in `[ray.tmin, tmax]`, if any.
     fn intersect(ray: &PreparedRay, tri: &[Vec3; 3], tmax: f32) -> Option<TriangleHit>;
 }
@@ -95,6 +101,8 @@ pub struct Watertight;
 pub struct MollerTrumbore;
 
 impl TriangleTest for Watertight {
+    type AnyAxis = Watertight;
+
     /// Dispatches on the ray's dominant axis; traversal loops call [`WatertightAxis`] directly
     /// so that the axis permutation is resolved at compile time.
     #[inline(always)]
@@ -112,6 +120,8 @@ impl TriangleTest for Watertight {
 pub struct WatertightAxis<const KZ: usize>;
 
 impl<const KZ: usize> TriangleTest for WatertightAxis<KZ> {
+    type AnyAxis = Watertight;
+
     #[inline(always)]
     fn intersect(ray: &PreparedRay, tri: &[Vec3; 3], tmax: f32) -> Option<TriangleHit> {
         debug_assert_eq!(ray.kz as usize, KZ);
@@ -180,6 +190,8 @@ fn in_range(t: f32, tmin: f32, tmax: f32) -> bool {
 }
 
 impl TriangleTest for MollerTrumbore {
+    type AnyAxis = MollerTrumbore;
+
     #[inline(always)]
     fn intersect(ray: &PreparedRay, tri: &[Vec3; 3], tmax: f32) -> Option<TriangleHit> {
         let e1 = tri[1] - tri[0];

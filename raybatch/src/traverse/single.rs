@@ -31,7 +31,7 @@ where
     V: Visitor,
 {
     let mut tmax = ray.tmax;
-    if tree.node_count() == 0 || !tree.bounds(0, &mut scratch.cache).hit_by(ray, tmax) {
+    if tree.is_empty() || !tree.bounds(0, &mut scratch.cache).hit_by(ray, tmax) {
         return tmax;
     }
     trace_below::<B, K, V>(tree, ray, id, 0, &mut tmax, scratch, visitor);

@@ -32,7 +32,7 @@ pub(crate) fn trace_stream<B, K, V>(
     K: TriangleTest,
     V: Visitor,
 {
-    if tree.node_count() == 0 || stream.is_empty() {
+    if tree.is_empty() || stream.is_empty() {
         return;
     }
     let single_ray_below = stream.options().single_ray_below;
@@ -71,7 +71,7 @@ const LEAF_BATCH: usize = 16;
 
 /// Tests the triangles in `slots` (read with `triangle`) against rays `0..active` of the
 /// stream. Each triangle is fetched once (up to [`LEAF_BATCH`] at a time) for all rays, and each
-/// ray is rebuilt from its lane once for all those triangles. Shared by every stream engine.
+/// ray is rebuilt from its lane once for all those triangles.
 pub(crate) fn test_leaf<K, V>(
     stream: &mut RayStream<'_>,
     active: usize,

@@ -30,6 +30,7 @@ use glam::Vec3;
 
 use crate::accel::{Accel, Footprint, RayStream};
 use crate::bvh::build::{BuildError, BuildOptions, build};
+use crate::bvh::nodes::leaf_word;
 use crate::geom::{Aabb, PreparedRay, TriangleTest};
 use crate::hit::Visitor;
 use crate::mesh::Mesh;
@@ -48,7 +49,8 @@ pub struct WideTree {
     triangle_order: Vec<u32>,
     /// Corners of each slot's triangle, if [`BuildOptions::leaf_corners`] (else empty).
     corners: Vec<[Vec3; 3]>,
-    /// Longest root-to-leaf path, in wide nodes.
+    /// Longest root-to-leaf path of the binary tree it was collapsed from: a bound on the wide
+    /// tree's depth, which sizes the one-ray stack (at most 3 pending children per level).
     depth: usize,
 }
 
@@ -58,6 +60,7 @@ impl WideTree {
     pub fn build(mesh: impl Into<Arc<Mesh>>, options: &BuildOptions) -> Result<Self, BuildError> {
         let mesh = mesh.into();
         let built = build(&mesh, options)?;
+        check_size(built.triangle_order.len(), built.nodes.len())?;
         let root_bounds = built.nodes.first().map_or(Aabb::EMPTY, |n| n.bounds);
         let (nodes, root) = collapse::collapse(&built).unwrap_or((Vec::new(), 0));
         let corners = if options.leaf_corners {
@@ -96,6 +99,23 @@ impl WideTree {
             None => (id, self.mesh.triangle(id)),
         }
     }
+}
+
+/// The format's name in error messages.
+const FORMAT: &str = "4-wide nodes (128 B)";
+
+/// Fails if leaf words cannot address `slots` triangle slots, or child words the wide nodes
+/// of a binary tree of `binary_nodes` nodes (fewer than that).
+fn check_size(slots: usize, binary_nodes: usize) -> Result<(), BuildError> {
+    let max_nodes = leaf_word::LEAF_BIT as usize;
+    if slots > leaf_word::MAX_SLOTS || binary_nodes > max_nodes {
+        return Err(BuildError::TooLarge {
+            format: FORMAT,
+            needed: slots.max(binary_nodes),
+            max: leaf_word::MAX_SLOTS.min(max_nodes),
+        });
+    }
+    Ok(())
 }
 
 /// Per-thread scratch of the wide traversals.
@@ -212,6 +232,16 @@ mod tests {
                 "{ray:?}"
             );
         }
+    }
+
+    /// Meshes whose slots or nodes the words cannot address are a typed error, not wrong answers.
+    #[test]
+    fn too_large_is_an_error() {
+        assert!(check_size(1000, 2000).is_ok());
+        let too_many_slots = check_size(leaf_word::MAX_SLOTS + 1, 10);
+        assert!(matches!(too_many_slots, Err(BuildError::TooLarge { .. })));
+        let too_many_nodes = check_size(10, leaf_word::LEAF_BIT as usize + 1);
+        assert!(matches!(too_many_nodes, Err(BuildError::TooLarge { .. })));
     }
 
     /// Same answers as the binary tree it was collapsed from, per ray and batched, for every

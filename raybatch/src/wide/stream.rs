@@ -21,6 +21,7 @@ use glam::Vec3;
 use super::node::{WIDTH, WideNode, WideRay};
 use super::{WideScratch, WideTree};
 use crate::accel::RayStream;
+use crate::bvh::build::MAX_LEAF_SIZE;
 use crate::bvh::nodes::leaf_word;
 use crate::geom::{PreparedRay, TriangleTest};
 use crate::hit::Visitor;
@@ -57,12 +58,8 @@ pub(crate) fn trace_stream<K: TriangleTest, V: Visitor>(
     if tree.is_empty() || stream.is_empty() {
         return;
     }
-    let block = std::env::var("RB_BLOCK")
-        .ok()
-        .and_then(|v| v.parse().ok())
-        .unwrap_or(BLOCK);
-    for first in (0..stream.len()).step_by(block) {
-        let last = (first + block).min(stream.len());
+    for first in (0..stream.len()).step_by(BLOCK) {
+        let last = (first + BLOCK).min(stream.len());
         trace_block::<K, V>(tree, stream, first..last, scratch, visitor);
     }
 }
@@ -70,6 +67,9 @@ pub(crate) fn trace_stream<K: TriangleTest, V: Visitor>(
 /// Rays per walk, so that their copies and index lists stay in cache (512 to 32k measured the
 /// same on the bunny, by instruction and cache-miss counts).
 const BLOCK: usize = 8192;
+
+// `split` counts a node's rays per child in 16-bit fields.
+const _: () = assert!(BLOCK <= u16::MAX as usize);
 
 /// Runs rays `range` of the stream through the tree, as one walk.
 fn trace_block<K: TriangleTest, V: Visitor>(
@@ -245,7 +245,7 @@ impl Walk<'_> {
         visitor: &mut V,
     ) {
         let (first, count) = leaf_word::unpack(word);
-        let mut fetched = [(0u32, [Vec3::ZERO; 3]); 16];
+        let mut fetched = [(0u32, [Vec3::ZERO; 3]); MAX_LEAF_SIZE as usize];
         for (k, slot) in (first..first + count).enumerate() {
             fetched[k] = self.tree.triangle(slot);
         }

@@ -9,7 +9,7 @@ use raybatch::{AccelKind, AnyAccel, BuildOptions, ChildOrdering, Hit, Kernel, Me
 /// Leaf sizes every structure is built with.
 pub const LEAF_SIZES: [u32; 3] = [1, 4, 16];
 
-/// Structures in [`all_structures`]: every kind x leaf size x ordering (18 with two kinds).
+/// Structures in [`all_structures`]: every kind x leaf size x ordering (9 per kind).
 pub const ZOO_SIZE: usize = AccelKind::ALL.len() * LEAF_SIZES.len() * ChildOrdering::ALL.len();
 
 /// One built structure and a name saying how it was built (`aabb/leaf4/pns`).

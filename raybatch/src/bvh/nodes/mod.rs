@@ -43,6 +43,9 @@ pub(crate) mod leaf_word {
     /// Largest number of triangle slots a leaf word can address.
     pub const MAX_SLOTS: usize = 1 << COUNT_SHIFT;
 
+    // The 4 count bits hold `count - 1` for every leaf size the builder makes.
+    const _: () = assert!(crate::bvh::build::MAX_LEAF_SIZE as usize <= 16);
+
     /// Packs a leaf's triangle range (`count` in 1..=16, `first` < [`MAX_SLOTS`]). The padding
     /// node (an empty leaf, see [`crate::bvh::build::FIRST_PAIR`]) is stored as one triangle
     /// behind an empty box, which no ray ever enters.
