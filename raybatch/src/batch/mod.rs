@@ -2,14 +2,14 @@
 //! prepared once and handed to the structure as streams (seed 001).
 //!
 //! - [`options`]: [`BatchOptions`] and [`BatchOrdering`].
-//! - [`chunks`]: large batches split into chunks over rayon's pool, one workspace per thread.
-//! - [`group`]: a chunk's rays validated, prepared and grouped by direction octant into lanes.
-//! - [`lanes`]: the structure-of-arrays ray lanes a [`crate::accel::RayStream`] wraps.
+//! - `chunks`: large batches split into chunks over rayon's pool, one workspace per thread.
+//! - `group`: a chunk's rays validated, prepared and grouped by direction octant into lanes.
+//! - `lanes`: the structure-of-arrays ray lanes a [`crate::accel::RayStream`] wraps.
 //! - [`partition`]: one box against many lanes with move-to-front (AVX-512, AVX2, portable).
-//! - [`scratch`]: the per-thread arrays, kept in the thread's workspace.
+//! - `scratch`: the per-thread arrays, kept in the thread's workspace.
 //!
 //! The queries that drive it (closest, any, all hits) are in [`crate::query::batched`]; how a
-//! binary BVH walks a stream is in [`crate::traverse::stream`].
+//! binary BVH walks a stream is in `crate::traverse::stream`.
 
 pub(crate) mod chunks;
 pub(crate) mod group;

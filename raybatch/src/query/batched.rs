@@ -1,9 +1,9 @@
 //! A batch at a time: [`BatchQueries`], for every [`Accel`].
 //!
-//! A call splits the batch into chunks ([`crate::batch::chunks`], over rayon's current pool:
+//! A call splits the batch into chunks (`crate::batch::chunks`, over rayon's current pool:
 //! wrap a call in `ThreadPool::install` to choose the thread count). Each chunk runs with its
 //! thread's workspace: its rays are validated, prepared and grouped by octant into lanes
-//! ([`crate::batch::group`]), and each group goes to [`Accel::trace_stream`] as one
+//! (`crate::batch::group`), and each group goes to [`Accel::trace_stream`] as one
 //! [`RayStream`]. Steady-state calls allocate nothing and threads share nothing. Batches smaller
 //! than [`BatchOptions::min_batch`] go through the single-ray path.
 //!

@@ -1,9 +1,9 @@
 //! The two traversals of a binary BVH, written once against [`Bvh`], which make every `Bvh` an
 //! [`Accel`]:
 //!
-//! - [`single`]: one ray at a time, depth first, nearer child first (the reference);
-//! - [`dispatch`]: that loop compiled for the baseline CPU and with AVX2, picked at run time;
-//! - [`stream`]: a stream of rays going down the tree once, partitioned at each node (seed 001).
+//! - `single`: one ray at a time, depth first, nearer child first (the reference);
+//! - `dispatch`: that loop compiled for the baseline CPU and with AVX2, picked at run time;
+//! - `stream`: a stream of rays going down the tree once, partitioned at each node (seed 001).
 
 #[allow(unsafe_code)]
 pub(crate) mod dispatch;

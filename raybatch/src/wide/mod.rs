@@ -4,11 +4,11 @@
 //!
 //! - [`node`]: the node layout and the 4-lane box test (identical, lane by lane, to the scalar
 //!   slab test).
-//! - [`collapse`]: binary tree to 4-wide tree.
-//! - [`dispatch`]: the one-ray loop's baseline and AVX2 copies, picked at run time.
+//! - `collapse`: binary tree to 4-wide tree.
+//! - `dispatch`: the one-ray loop's baseline and AVX2 copies, picked at run time.
 //! - `simd`: the box test with SSE intrinsics on x86-64 (its portable twin is in [`node`]).
-//! - [`single`]: the one-ray loop, nearest child first by entry distance.
-//! - [`stream`]: a stream of rays going down once, partitioned against each child box.
+//! - `single`: the one-ray loop, nearest child first by entry distance.
+//! - `stream`: a stream of rays going down once, partitioned against each child box.
 //!
 //! It implements [`Accel`] directly (its walk is not the binary one). Triangles are the binary
 //! tree's leaves, in the same order, tested with the same kernels, so answers are those of

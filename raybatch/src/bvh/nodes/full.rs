@@ -28,7 +28,7 @@ pub struct FullNode {
     order: u32,
 }
 
-/// The node array of an [`super::AabbTree`] with full-precision bounds.
+/// The node array of an [`crate::bvh::AabbTree`] with full-precision bounds.
 #[derive(Clone, Debug, Default)]
 pub struct FullNodes {
     nodes: Vec<FullNode>,

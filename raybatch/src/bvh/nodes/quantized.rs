@@ -41,7 +41,7 @@ pub struct QuantizedNode {
     word: u32,
 }
 
-/// The node array of a [`super::QuantizedAabbTree`]: nodes plus the quantization grid.
+/// The node array of a [`crate::bvh::QuantizedAabbTree`]: nodes plus the quantization grid.
 #[derive(Clone, Debug, Default)]
 pub struct QuantizedNodes {
     nodes: Vec<QuantizedNode>,
