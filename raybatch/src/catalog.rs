@@ -133,10 +133,7 @@ impl AnyAccel {
 
     /// [`RayQueries::all_hits`].
     pub fn all_hits(&self, ray: &Ray) -> Vec<Hit> {
-        let mut hits = Vec::new();
-        self.for_each_hit(ray, |h| hits.push(h));
-        Hit::sort(&mut hits);
-        hits
+        self.inner.all_hits(ray)
     }
 
     /// [`BatchQueries::cast_rays`].
@@ -215,6 +212,7 @@ trait Erased: Footprint + Send + Sync {
     fn cast_ray_with(&self, ray: &Ray, kernel: Kernel) -> Option<Hit>;
     fn occluded_with(&self, ray: &Ray, kernel: Kernel) -> bool;
     fn for_each_hit_with(&self, ray: &Ray, kernel: Kernel, f: &mut dyn FnMut(Hit));
+    fn all_hits(&self, ray: &Ray) -> Vec<Hit>;
     fn cast_rays_with(
         &self,
         rays: &[Ray],
@@ -244,6 +242,9 @@ impl<A: Accel + Footprint + Send> Erased for A {
     }
     fn for_each_hit_with(&self, ray: &Ray, kernel: Kernel, f: &mut dyn FnMut(Hit)) {
         RayQueries::for_each_hit_with(self, ray, kernel, f)
+    }
+    fn all_hits(&self, ray: &Ray) -> Vec<Hit> {
+        RayQueries::all_hits(self, ray)
     }
     fn cast_rays_with(
         &self,

@@ -15,9 +15,11 @@
 //! - [`build`]: binned SAH build shared by every node format.
 //! - [`ordering`]: the child-order byte per node (PNS, seed 000).
 //! - [`nodes`]: the node formats (full 32-byte, quantized 16-byte).
+//! - `leaves`: the leaf triangles in slot order, shared by every tree the builder makes.
 //! - [`tree`]: [`AabbTree`], a mesh plus a node array in one of the formats.
 
 pub mod build;
+pub(crate) mod leaves;
 pub mod nodes;
 pub mod ordering;
 pub mod tree;

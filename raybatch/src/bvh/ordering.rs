@@ -52,7 +52,7 @@ impl ChildOrdering {
 }
 
 /// The diagonal of octant `o` (bit 0: x negative, bit 1: y negative, bit 2: z negative).
-fn octant_diagonal(o: u32) -> Vec3 {
+pub(crate) fn octant_diagonal(o: u32) -> Vec3 {
     let sign = |bit: u32| if o & (1 << bit) != 0 { -1.0 } else { 1.0 };
     Vec3::new(sign(0), sign(1), sign(2))
 }

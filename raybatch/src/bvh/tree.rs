@@ -10,6 +10,7 @@ use std::sync::Arc;
 use glam::Vec3;
 
 use super::build::{BuildError, BuildOptions, build};
+use super::leaves::LeafTriangles;
 use super::nodes::{FullNodes, NodeFormat, QuantizedNodes};
 use super::{Bvh, Node};
 use crate::accel::Footprint;
@@ -19,11 +20,8 @@ use crate::mesh::Mesh;
 /// A binary AABB tree over a mesh, with node format `N`.
 #[derive(Clone, Debug)]
 pub struct AabbTree<N: NodeFormat = FullNodes> {
-    mesh: Arc<Mesh>,
     nodes: N,
-    triangle_order: Vec<u32>,
-    /// Corners of each slot's triangle, if [`BuildOptions::leaf_corners`] (else empty).
-    corners: Vec<[Vec3; 3]>,
+    triangles: LeafTriangles,
     depth: usize,
     options: BuildOptions,
 }
@@ -38,20 +36,9 @@ impl<N: NodeFormat> AabbTree<N> {
         let mesh = mesh.into();
         let built = build(&mesh, options)?;
         let nodes = N::pack(&built)?;
-        let corners = if options.leaf_corners {
-            built
-                .triangle_order
-                .iter()
-                .map(|&id| mesh.triangle(id))
-                .collect()
-        } else {
-            Vec::new()
-        };
         Ok(Self {
-            mesh,
             nodes,
-            corners,
-            triangle_order: built.triangle_order,
+            triangles: LeafTriangles::new(mesh, built.triangle_order, options),
             depth: built.depth,
             options: *options,
         })
@@ -64,12 +51,12 @@ impl<N: NodeFormat> AabbTree<N> {
 
     /// The mesh the tree was built over; triangle ids refer to it.
     pub fn mesh(&self) -> &Mesh {
-        &self.mesh
+        self.triangles.mesh()
     }
 
     /// The shared mesh.
     pub fn mesh_arc(&self) -> &Arc<Mesh> {
-        &self.mesh
+        self.triangles.mesh()
     }
 }
 
@@ -93,11 +80,7 @@ impl<N: NodeFormat> Bvh for AabbTree<N> {
 
     #[inline(always)]
     fn triangle(&self, slot: u32) -> (u32, [Vec3; 3]) {
-        let id = self.triangle_order[slot as usize];
-        match self.corners.get(slot as usize) {
-            Some(corners) => (id, *corners),
-            None => (id, self.mesh.triangle(id)),
-        }
+        self.triangles.get(slot)
     }
 
     fn depth(&self) -> usize {
@@ -111,7 +94,7 @@ impl<N: NodeFormat> Footprint for AabbTree<N> {
     }
 
     fn triangle_count(&self) -> usize {
-        self.mesh.triangle_count()
+        self.mesh().triangle_count()
     }
 
     fn node_count(&self) -> usize {
@@ -119,8 +102,6 @@ impl<N: NodeFormat> Footprint for AabbTree<N> {
     }
 
     fn heap_bytes(&self) -> usize {
-        self.nodes.heap_bytes()
-            + self.triangle_order.len() * size_of::<u32>()
-            + self.corners.len() * size_of::<[Vec3; 3]>()
+        self.nodes.heap_bytes() + self.triangles.heap_bytes()
     }
 }

@@ -1,15 +1,30 @@
-//! The single-ray loop compiled twice: for the baseline instruction set and with AVX2, picked
-//! at run time.
-//!
-//! With AVX2 the box test gets wider blends and three-operand instructions. Both copies perform
-//! the same IEEE operations in the same order (Rust never fuses a multiply and an add on its
-//! own), so they return identical bits; a test compares them. Trees whose
-//! [`Bvh::AVX2_TRAVERSAL`] is false (measured slower that way) always run the baseline copy.
+//! The single-ray loop over a [`Bvh`] in its baseline and AVX2 copies ([`super::avx2`]).
+//! Trees whose [`Bvh::AVX2_TRAVERSAL`] is false (measured slower that way) always run the
+//! baseline copy.
 
+use super::avx2::{self, Loop};
 use super::single;
 use crate::bvh::{Bvh, BvhScratch};
 use crate::geom::{PreparedRay, TriangleTest};
 use crate::hit::Visitor;
+
+/// One ray through [`single::trace`], as a [`Loop`].
+struct OneRay<'a, B: Bvh, K, V> {
+    tree: &'a B,
+    ray: &'a PreparedRay,
+    id: u32,
+    scratch: &'a mut BvhScratch<B::Cache>,
+    visitor: &'a mut V,
+    kernel: std::marker::PhantomData<K>,
+}
+
+impl<B: Bvh, K: TriangleTest, V: Visitor> Loop for OneRay<'_, B, K, V> {
+    type Output = f32;
+    #[inline(always)]
+    fn run(self) -> f32 {
+        single::trace::<B, K, V>(self.tree, self.ray, self.id, self.scratch, self.visitor)
+    }
+}
 
 /// [`single::trace`], in the AVX2 copy where the CPU has AVX2 and the tree wants it.
 #[inline]
@@ -20,39 +35,28 @@ pub(crate) fn trace<B: Bvh, K: TriangleTest, V: Visitor>(
     scratch: &mut BvhScratch<B::Cache>,
     visitor: &mut V,
 ) -> f32 {
-    #[cfg(target_arch = "x86_64")]
-    if B::AVX2_TRAVERSAL && std::arch::is_x86_feature_detected!("avx2") {
-        // SAFETY: the CPU supports AVX2, the only requirement of `trace_avx2`.
-        return unsafe { trace_avx2::<B, K, V>(tree, ray, id, scratch, visitor) };
-    }
-    trace_portable::<B, K, V>(tree, ray, id, scratch, visitor)
+    trace_in::<B, K, V>(B::AVX2_TRAVERSAL, tree, ray, id, scratch, visitor)
 }
 
-/// [`single::trace`] compiled for the baseline instruction set.
-pub(crate) fn trace_portable<B: Bvh, K: TriangleTest, V: Visitor>(
+/// [`single::trace`], in the AVX2 copy if `avx2` and the CPU has it, else the baseline copy.
+#[inline]
+pub(crate) fn trace_in<B: Bvh, K: TriangleTest, V: Visitor>(
+    avx2: bool,
     tree: &B,
     ray: &PreparedRay,
     id: u32,
     scratch: &mut BvhScratch<B::Cache>,
     visitor: &mut V,
 ) -> f32 {
-    single::trace::<B, K, V>(tree, ray, id, scratch, visitor)
-}
-
-/// [`single::trace`] compiled with AVX2 enabled.
-///
-/// # Safety
-/// The CPU must support AVX2.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
-unsafe fn trace_avx2<B: Bvh, K: TriangleTest, V: Visitor>(
-    tree: &B,
-    ray: &PreparedRay,
-    id: u32,
-    scratch: &mut BvhScratch<B::Cache>,
-    visitor: &mut V,
-) -> f32 {
-    single::trace::<B, K, V>(tree, ray, id, scratch, visitor)
+    let one = OneRay::<B, K, V> {
+        tree,
+        ray,
+        id,
+        scratch,
+        visitor,
+        kernel: std::marker::PhantomData,
+    };
+    avx2::run(one, avx2)
 }
 
 #[cfg(test)]
@@ -77,11 +81,7 @@ mod tests {
             let mut scratch = BvhScratch::default();
             let mut visitor = Closest { best: &mut best };
             let (tree, ray) = (self.tree, self.ray);
-            if self.portable {
-                trace_portable::<_, K, _>(tree, ray, 0, &mut scratch, &mut visitor);
-            } else {
-                trace::<_, K, _>(tree, ray, 0, &mut scratch, &mut visitor);
-            }
+            trace_in::<_, K, _>(!self.portable, tree, ray, 0, &mut scratch, &mut visitor);
             best[0].found()
         }
     }

@@ -2,10 +2,13 @@
 //! [`Accel`]:
 //!
 //! - `single`: one ray at a time, depth first, nearer child first (the reference);
-//! - `dispatch`: that loop compiled for the baseline CPU and with AVX2, picked at run time;
+//! - `avx2`: running a loop in a copy compiled with AVX2, picked at run time (the only
+//!   `unsafe` of the traversals);
+//! - `dispatch`: the one-ray loop through it;
 //! - `stream`: a stream of rays going down the tree once, partitioned at each node (seed 001).
 
 #[allow(unsafe_code)]
+pub(crate) mod avx2;
 pub(crate) mod dispatch;
 pub(crate) mod single;
 pub(crate) mod stream;

@@ -18,7 +18,7 @@ use super::single::{test_triangles, trace_below};
 use crate::accel::RayStream;
 use crate::bvh::ordering::second_child_first;
 use crate::bvh::{Bvh, BvhScratch};
-use crate::geom::TriangleTest;
+use crate::geom::{PreparedRay, TriangleTest};
 use crate::hit::Visitor;
 
 /// Runs every ray of `stream` through the tree.
@@ -69,10 +69,50 @@ pub(crate) fn trace_stream<B, K, V>(
 /// Most triangles a leaf pass keeps at once; larger triangle ranges go in several passes.
 const LEAF_BATCH: usize = 16;
 
+/// Up to [`LEAF_BATCH`] triangles of a leaf, fetched once to be tested against many rays: what
+/// every stream engine does at a leaf.
+pub(crate) struct LeafBatch {
+    triangles: [(u32, [Vec3; 3]); LEAF_BATCH],
+    len: usize,
+}
+
+impl LeafBatch {
+    /// The triangles of `slots` (read with `triangle`), [`LEAF_BATCH`] at a time.
+    pub(crate) fn fetch(
+        slots: std::ops::Range<u32>,
+        triangle: impl Fn(u32) -> (u32, [Vec3; 3]),
+    ) -> impl Iterator<Item = LeafBatch> {
+        let end = slots.end;
+        slots.step_by(LEAF_BATCH).map(move |first| {
+            let mut batch = LeafBatch {
+                triangles: [(0, [Vec3::ZERO; 3]); LEAF_BATCH],
+                len: (end - first).min(LEAF_BATCH as u32) as usize,
+            };
+            for (k, slot) in (first..).take(batch.len).enumerate() {
+                batch.triangles[k] = triangle(slot);
+            }
+            batch
+        })
+    }
+
+    /// Tests ray `ray` (number `id`, current range end `tmax`) against the batch.
+    #[inline(always)]
+    pub(crate) fn test<K: TriangleTest, V: Visitor>(
+        &self,
+        ray: &PreparedRay,
+        id: u32,
+        tmax: &mut f32,
+        visitor: &mut V,
+    ) {
+        let triangles = self.triangles[..self.len].iter().copied();
+        test_triangles::<K, V>(ray, id, triangles, tmax, visitor);
+    }
+}
+
 /// Tests the triangles in `slots` (read with `triangle`) against rays `0..active` of the
-/// stream. Each triangle is fetched once (up to [`LEAF_BATCH`] at a time) for all rays, and each
-/// ray is rebuilt from its lane once for all those triangles.
-pub(crate) fn test_leaf<K, V>(
+/// stream: each triangle fetched once for all rays, each ray rebuilt from its lane once per
+/// batch of triangles.
+fn test_leaf<K, V>(
     stream: &mut RayStream<'_>,
     active: usize,
     slots: std::ops::Range<u32>,
@@ -82,18 +122,11 @@ pub(crate) fn test_leaf<K, V>(
     K: TriangleTest,
     V: Visitor,
 {
-    let mut fetched = [(0u32, [Vec3::ZERO; 3]); LEAF_BATCH];
-    let end = slots.end;
-    for first in slots.step_by(LEAF_BATCH) {
-        let count = (end - first).min(LEAF_BATCH as u32) as usize;
-        for (k, slot) in (first..).take(count).enumerate() {
-            fetched[k] = triangle(slot);
-        }
+    for batch in LeafBatch::fetch(slots, triangle) {
         for i in 0..active {
             let ray = stream.ray(i);
             let mut tmax = ray.tmax;
-            let triangles = fetched[..count].iter().copied();
-            test_triangles::<K, V>(&ray, stream.id(i), triangles, &mut tmax, visitor);
+            batch.test::<K, V>(&ray, stream.id(i), &mut tmax, visitor);
             stream.set_tmax(i, tmax);
         }
     }

@@ -36,6 +36,7 @@ fn collapse_node(built: &BuiltTree, index: u32, nodes: &mut Vec<WideNode>) -> u3
         };
         nodes[wide as usize].set(slot, &node.bounds, word);
     }
+    nodes[wide as usize].order_children();
     wide
 }
 

@@ -1,6 +1,6 @@
 //! The 4-wide BVH: the binary SAH tree collapsed so that each node holds four children's
-//! boxes, tested against a ray in one SIMD pass. A ray makes about a third of the binary tree's
-//! node visits, each a few instructions longer, and pops far fewer stack entries.
+//! boxes, tested against a ray in one SIMD pass: fewer, slightly longer node visits than the
+//! binary tree's, and fewer stack entries.
 //!
 //! - [`node`]: the node layout and the 4-lane box test (identical, lane by lane, to the scalar
 //!   slab test).
@@ -8,14 +8,13 @@
 //! - `dispatch`: the one-ray loop's baseline and AVX2 copies, picked at run time.
 //! - `simd`: the box test with SSE intrinsics on x86-64 (its portable twin is in [`node`]).
 //! - `single`: the one-ray loop, nearest child first by entry distance.
-//! - `stream`: a stream of rays going down once, partitioned against each child box.
+//! - `stream`: a stream of rays going down once, split into index lists per child.
 //!
 //! It implements [`Accel`] directly (its walk is not the binary one). Triangles are the binary
 //! tree's leaves, in the same order, tested with the same kernels, so answers are those of
 //! every other structure, bit for bit.
 
 pub(crate) mod collapse;
-#[allow(unsafe_code)]
 pub(crate) mod dispatch;
 pub mod node;
 #[cfg(target_arch = "x86_64")]
@@ -30,6 +29,7 @@ use glam::Vec3;
 
 use crate::accel::{Accel, Footprint, RayStream};
 use crate::bvh::build::{BuildError, BuildOptions, build};
+use crate::bvh::leaves::LeafTriangles;
 use crate::bvh::nodes::leaf_word;
 use crate::geom::{Aabb, PreparedRay, TriangleTest};
 use crate::hit::Visitor;
@@ -39,16 +39,13 @@ use node::WideNode;
 /// A 4-wide BVH over a mesh (see the module docs).
 #[derive(Clone, Debug)]
 pub struct WideTree {
-    mesh: Arc<Mesh>,
     nodes: Vec<WideNode>,
     /// The root: a node index, or a leaf word when the tree is a single leaf.
     root: u32,
     /// The root's box (the binary root's): wide nodes store their children's boxes only.
     root_bounds: Aabb,
-    /// Leaf slots to triangle ids.
-    triangle_order: Vec<u32>,
-    /// Corners of each slot's triangle, if [`BuildOptions::leaf_corners`] (else empty).
-    corners: Vec<[Vec3; 3]>,
+    /// The leaves' triangles (the binary tree's, in its slot order).
+    triangles: LeafTriangles,
     /// Longest root-to-leaf path of the binary tree it was collapsed from: a bound on the wide
     /// tree's depth, which sizes the one-ray stack (at most 3 pending children per level).
     depth: usize,
@@ -63,41 +60,29 @@ impl WideTree {
         check_size(built.triangle_order.len(), built.nodes.len())?;
         let root_bounds = built.nodes.first().map_or(Aabb::EMPTY, |n| n.bounds);
         let (nodes, root) = collapse::collapse(&built).unwrap_or((Vec::new(), 0));
-        let corners = if options.leaf_corners {
-            let corners = |&id: &u32| mesh.triangle(id);
-            built.triangle_order.iter().map(corners).collect()
-        } else {
-            Vec::new()
-        };
         Ok(Self {
-            mesh,
             nodes,
             root,
             root_bounds,
-            triangle_order: built.triangle_order,
-            corners,
+            triangles: LeafTriangles::new(mesh, built.triangle_order, options),
             depth: built.depth,
         })
     }
 
     /// The mesh the tree was built over; triangle ids refer to it.
     pub fn mesh(&self) -> &Mesh {
-        &self.mesh
+        self.triangles.mesh()
     }
 
     /// True if no ray can hit anything.
     fn is_empty(&self) -> bool {
-        self.triangle_order.is_empty()
+        self.triangles.len() == 0
     }
 
     /// Triangle slot `slot`: its id and corners.
     #[inline(always)]
     fn triangle(&self, slot: u32) -> (u32, [Vec3; 3]) {
-        let id = self.triangle_order[slot as usize];
-        match self.corners.get(slot as usize) {
-            Some(corners) => (id, *corners),
-            None => (id, self.mesh.triangle(id)),
-        }
+        self.triangles.get(slot)
     }
 }
 
@@ -125,8 +110,6 @@ pub struct WideScratch {
     stack: Vec<(u32, f32)>,
     /// Stream: the rays, prepared.
     rays: Vec<PreparedRay>,
-    /// Stream: what the box tests read of each ray.
-    boxes: Vec<stream::BoxRay>,
     /// Stream: the lists of ray indices.
     ids: Vec<u32>,
     /// Stream: child masks of the list being split.
@@ -146,7 +129,7 @@ impl Accel for WideTree {
         scratch: &mut WideScratch,
         visitor: &mut V,
     ) -> f32 {
-        dispatch::trace::<K, V>(self, ray, id, &mut scratch.stack, visitor)
+        dispatch::trace::<K, V>(true, self, ray, id, &mut scratch.stack, visitor)
     }
 
     fn trace_stream<K: TriangleTest, V: Visitor>(
@@ -165,7 +148,7 @@ impl Footprint for WideTree {
     }
 
     fn triangle_count(&self) -> usize {
-        self.mesh.triangle_count()
+        self.mesh().triangle_count()
     }
 
     fn node_count(&self) -> usize {
@@ -173,9 +156,7 @@ impl Footprint for WideTree {
     }
 
     fn heap_bytes(&self) -> usize {
-        self.nodes.len() * size_of::<WideNode>()
-            + self.triangle_order.len() * size_of::<u32>()
-            + self.corners.len() * size_of::<[Vec3; 3]>()
+        self.nodes.len() * size_of::<WideNode>() + self.triangles.heap_bytes()
     }
 }
 
@@ -213,17 +194,15 @@ mod tests {
             for (k, answer) in answers.iter_mut().enumerate() {
                 let mut best = [Hit::none_before(prepared.tmax)];
                 let mut closest = crate::hit::Closest { best: &mut best };
-                if k == 0 {
-                    dispatch::trace::<Watertight, _>(&tree, &prepared, 0, &mut stack, &mut closest);
-                } else {
-                    dispatch::trace_portable::<Watertight, _>(
-                        &tree,
-                        &prepared,
-                        0,
-                        &mut stack,
-                        &mut closest,
-                    );
-                }
+                let avx2 = k == 0;
+                dispatch::trace::<Watertight, _>(
+                    avx2,
+                    &tree,
+                    &prepared,
+                    0,
+                    &mut stack,
+                    &mut closest,
+                );
                 *answer = best[0];
             }
             assert_eq!(

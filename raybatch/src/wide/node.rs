@@ -5,9 +5,16 @@
 //! bounds: [[f32; 4]; 6]  min x, min y, min z, max x, max y, max z, one lane per child
 //! child:  [u32; 4]       internal child: its node index (bit 31 clear)
 //!                        leaf child: the leaf word of `bvh::nodes` (bit 31 set, count, first slot)
+//! order:  [u8; 8]        per ray octant, the used slots nearest first (2 bits each)
+//! used:   u8             slots in use (0..used; the others are unused)
 //! ```
-//! 112 bytes, aligned to 128 (two cache lines). An unused slot has an empty box
-//! (`min = +inf`, `max = -inf`), which no ray enters, so the test needs no slot count.
+//! 121 bytes, aligned to 128 (two cache lines). An unused slot has an empty box
+//! (`min = +inf`, `max = -inf`), which no ray enters, so the box test needs no slot count.
+//!
+//! The order bytes are precomputed node sorting (seed 000) for four children: for each
+//! direction octant, the children sorted by the projection of their centres on the octant's
+//! diagonal. The stream engine reads them to walk nearer children first; the one-ray loop sorts
+//! by the entry distances it computes anyway.
 //!
 //! The lanes use glam's `Vec4` (SSE2 on x86-64, NEON on aarch64, scalar elsewhere) and do the
 //! scalar slab test's arithmetic lane by lane ([`crate::geom::aabb::box_entry`]): the same
@@ -17,6 +24,7 @@
 
 use glam::{Vec3, Vec4};
 
+use crate::bvh::ordering::octant_diagonal;
 use crate::geom::aabb::EXIT_SCALE;
 use crate::geom::{Aabb, PreparedRay};
 
@@ -31,6 +39,10 @@ pub struct WideNode {
     pub(crate) bounds: [Vec4; 6],
     /// Child words.
     pub(crate) child: [u32; WIDTH],
+    /// Per octant, the used slots nearest first, slot `k` of the order in bits `2k..2k + 2`.
+    order: [u8; 8],
+    /// Number of used slots (they are `0..used`).
+    used: u8,
 }
 
 impl WideNode {
@@ -46,16 +58,44 @@ impl WideNode {
                 Vec4::NEG_INFINITY,
             ],
             child: [0; WIDTH],
+            order: [0; 8],
+            used: 0,
         }
     }
 
-    /// Puts `bounds` and `word` in slot `slot`.
+    /// Puts `bounds` and `word` in slot `slot` (slots are filled from 0 up).
     pub(crate) fn set(&mut self, slot: usize, bounds: &Aabb, word: u32) {
         for axis in 0..3 {
             self.bounds[axis][slot] = bounds.min[axis];
             self.bounds[3 + axis][slot] = bounds.max[axis];
         }
         self.child[slot] = word;
+        self.used = self.used.max(slot as u8 + 1);
+    }
+
+    /// Computes the per-octant order bytes from the slots set so far.
+    pub(crate) fn order_children(&mut self) {
+        for octant in 0..8 {
+            let diagonal = octant_diagonal(octant);
+            let mut slots: Vec<usize> = (0..self.used as usize).collect();
+            let along = |slot: usize| self.slot_bounds(slot).center().dot(diagonal);
+            slots.sort_by(|&a, &b| along(a).total_cmp(&along(b)).then(a.cmp(&b)));
+            let byte = slots
+                .iter()
+                .rev()
+                .fold(0u8, |byte, &slot| (byte << 2) | slot as u8);
+            self.order[octant as usize] = byte;
+        }
+    }
+
+    /// The used slots nearest first for rays of octant mask `octant_mask` (`1 << octant`), or
+    /// in slot order for mask 0 (rays of mixed octants).
+    pub(crate) fn nearest_first(&self, octant_mask: u8) -> impl DoubleEndedIterator<Item = usize> {
+        let byte = match octant_mask {
+            0 => 0b11_10_01_00,
+            mask => self.order[mask.trailing_zeros() as usize & 7],
+        };
+        (0..self.used as usize).map(move |k| ((byte >> (2 * k)) & 3) as usize)
     }
 
     /// The box of slot `slot`.
@@ -81,13 +121,10 @@ pub(crate) struct WideRay {
 }
 
 impl WideRay {
-    pub(crate) fn new(ray: &PreparedRay) -> Self {
-        Self::from_parts(ray.origin, ray.inv_dir, ray.tmin)
-    }
-
-    /// The constants of the ray with this origin, inverse direction and `tmin`.
+    /// The constants of `ray`.
     #[inline(always)]
-    pub(crate) fn from_parts(origin: Vec3, inv_dir: Vec3, tmin: f32) -> Self {
+    pub(crate) fn new(ray: &PreparedRay) -> Self {
+        let (origin, inv_dir, tmin) = (ray.origin, ray.inv_dir, ray.tmin);
         let negative = [inv_dir.x < 0.0, inv_dir.y < 0.0, inv_dir.z < 0.0];
         let near = |axis: usize| axis + 3 * negative[axis] as usize;
         let far = |axis: usize| axis + 3 * !negative[axis] as usize;
@@ -149,6 +186,24 @@ mod tests {
     use super::*;
     use crate::geom::Ray;
     use crate::test_support::TestRng;
+
+    /// The order bytes list the used slots nearest first along each octant's diagonal, and
+    /// slot order for mixed octants.
+    #[test]
+    fn children_are_ordered_per_octant() {
+        let mut node = WideNode::empty();
+        // Three children along x at x = 2, 0, 1 (slots 0, 1, 2); slot 3 unused.
+        for (slot, x) in [2.0f32, 0.0, 1.0].into_iter().enumerate() {
+            let min = glam::Vec3::new(x, 0.0, 0.0);
+            node.set(slot, &Aabb::new(min, min + 0.5), slot as u32 + 10);
+        }
+        node.order_children();
+        let order = |mask: u8| node.nearest_first(mask).collect::<Vec<_>>();
+        // Octant 0: +x, +y, +z; octant 1 (bit 0): -x.
+        assert_eq!(order(1 << 0), [1, 2, 0]);
+        assert_eq!(order(1 << 1), [0, 2, 1]);
+        assert_eq!(order(0), [0, 1, 2]);
+    }
 
     /// Every lane of both versions (SSE where built for x86-64, and the portable one) agrees
     /// with the scalar slab test: same hit or miss, same entry distance.

@@ -1,42 +1,28 @@
 //! A stream of rays down the 4-wide tree once (seed 001, with four children per node).
 //!
-//! The rays are copied once into an array of [`PreparedRay`]s (one cache line each); the walk
-//! then moves only 4-byte ray indices. At a node reached by a list of rays, each ray tests the
-//! four child boxes in one SIMD pass ([`WideRay::hits`], the one-ray test) and its index is
-//! appended to the list of every child it enters; the node's boxes are read once for the whole
-//! list. Child lists are pushed farther child first along the stream's octant diagonal (the
-//! precomputed-node-sorting criterion, evaluated once per node visit), so the nearer ones are
-//! walked first and closest-hit rays shrink early. A leaf's triangles are fetched once and tested
-//! against every ray of its list. Lists shorter than [`BatchOptions::single_ray_below`] finish
-//! their subtree with the one-ray loop.
+//! The rays are copied once into an array of [`PreparedRay`]s (one cache line each, holding the
+//! ray's current range end); the walk then moves only 4-byte ray indices. At a node reached by a
+//! list of rays, each ray tests the four child boxes in one SIMD pass ([`WideRay::hits`], the
+//! one-ray test) and its index is appended to the list of every child it enters; the node's
+//! boxes are read once for the whole list. Child lists are pushed in the node's precomputed
+//! order for the stream's octant, farther child first, so the nearer ones are walked first and
+//! closest-hit rays shrink early. A leaf's triangles are fetched once and tested against every
+//! ray of its list. Lists shorter than [`BatchOptions::single_ray_below`] finish their subtree
+//! with the one-ray loop.
 //!
 //! The index lists live in one buffer used as a stack: a node's child lists are written above
-//! everything pending, and popping a list truncates the buffer back to where its siblings end,
-//! so memory stays proportional to the rays times the depth of the walk.
+//! everything pending, and popping a list moves the buffer's logical end back to where its
+//! siblings end, so memory stays proportional to the rays times the depth of the walk.
 //!
 //! [`BatchOptions::single_ray_below`]: crate::batch::BatchOptions::single_ray_below
 
-use glam::Vec3;
-
-use super::node::{WIDTH, WideNode, WideRay};
+use super::node::{WIDTH, WideRay};
 use super::{WideScratch, WideTree};
 use crate::accel::RayStream;
-use crate::bvh::build::MAX_LEAF_SIZE;
 use crate::bvh::nodes::leaf_word;
 use crate::geom::{PreparedRay, TriangleTest};
 use crate::hit::Visitor;
-use crate::traverse::single::test_triangles;
-
-/// What a box test reads of a ray, in half a cache line: the walk reads it at every node, the
-/// full [`PreparedRay`] only at leaves. `tmax` here is the ray's current range end.
-#[derive(Clone, Copy, Debug)]
-#[repr(C, align(32))]
-pub(crate) struct BoxRay {
-    origin: Vec3,
-    tmin: f32,
-    inv_dir: Vec3,
-    tmax: f32,
-}
+use crate::traverse::stream::LeafBatch;
 
 /// A list of rays waiting to enter a child: its word, its rays (`ids[start..end]`) and where
 /// the buffer ends once it and its siblings are all that is pending above it.
@@ -82,7 +68,6 @@ fn trace_block<K: TriangleTest, V: Visitor>(
     let WideScratch {
         stack,
         rays,
-        boxes,
         ids,
         masks,
         pending,
@@ -90,13 +75,6 @@ fn trace_block<K: TriangleTest, V: Visitor>(
     let first = range.start;
     rays.clear();
     rays.extend(range.map(|i| stream.ray(i)));
-    boxes.clear();
-    boxes.extend(rays.iter().map(|r| BoxRay {
-        origin: r.origin,
-        tmin: r.tmin,
-        inv_dir: r.inv_dir,
-        tmax: r.tmax,
-    }));
     // The buffer only grows (never zero-filled again); `Walk::top` is its logical end.
     if ids.len() < rays.len() {
         ids.resize(rays.len(), 0);
@@ -115,11 +93,10 @@ fn trace_block<K: TriangleTest, V: Visitor>(
     });
     let mut walk = Walk {
         tree,
-        diagonal: octant_diagonal(stream.octant_mask()),
+        octant_mask: stream.octant_mask(),
         single_ray_below: stream.options().single_ray_below,
         first,
         rays,
-        boxes,
         ids,
         top,
         masks,
@@ -130,23 +107,21 @@ fn trace_block<K: TriangleTest, V: Visitor>(
         walk.top = list.top as usize;
         walk.visit::<K, V>(stream, list, visitor);
     }
-    for (i, b) in walk.boxes.iter().enumerate() {
-        stream.set_tmax(first + i, b.tmax);
+    for (i, ray) in walk.rays.iter().enumerate() {
+        stream.set_tmax(first + i, ray.tmax);
     }
 }
 
 /// The state of one stream's walk.
 struct Walk<'a> {
     tree: &'a WideTree,
-    /// The octant's diagonal (zero when the rays' octants differ: fixed order).
-    diagonal: [f32; 3],
+    /// The rays' octant mask (0 when their octants differ: children in slot order).
+    octant_mask: u8,
     single_ray_below: usize,
     /// The stream position of the block's first ray.
     first: usize,
-    /// The block's rays (their `tmax` is not kept up to date: see `boxes`).
+    /// The block's rays, with their current range ends.
     rays: &'a mut Vec<PreparedRay>,
-    /// What the box tests read of each ray, with its current range end.
-    boxes: &'a mut Vec<BoxRay>,
     /// The index lists.
     ids: &'a mut Vec<u32>,
     /// The end of the lists in use in `ids`.
@@ -173,13 +148,13 @@ impl Walk<'_> {
         } else if end - start < self.single_ray_below {
             for k in start..end {
                 let i = self.ids[k] as usize;
-                let ray = self.rays[i];
-                let mut tmax = self.boxes[i].tmax;
+                let ray = &mut self.rays[i];
                 let id = stream.id(self.first + i);
+                let mut tmax = ray.tmax;
                 super::single::trace_from::<K, V>(
-                    self.tree, &ray, id, list.word, &mut tmax, self.stack, visitor,
+                    self.tree, ray, id, list.word, &mut tmax, self.stack, visitor,
                 );
-                self.boxes[i].tmax = tmax;
+                ray.tmax = tmax;
             }
         } else {
             self.split(list.word, start, end);
@@ -194,8 +169,8 @@ impl Walk<'_> {
         let mut packed = 0u64;
         self.masks.clear();
         for k in start..end {
-            let b = &self.boxes[self.ids[k] as usize];
-            let (mask, _) = WideRay::from_parts(b.origin, b.inv_dir, b.tmin).hits(node, b.tmax);
+            let ray = &self.rays[self.ids[k] as usize];
+            let (mask, _) = WideRay::new(ray).hits(node, ray.tmax);
             packed += SPREAD[mask as usize & 15];
             self.masks.push(mask as u8);
         }
@@ -222,7 +197,7 @@ impl Walk<'_> {
             }
         }
         let counts = counts.map(|c| c as u32);
-        for slot in farthest_first(node, self.diagonal) {
+        for slot in node.nearest_first(self.octant_mask).rev() {
             let (list_end, count) = (cursor[slot] as u32, counts[slot]);
             if count > 0 {
                 self.pending.push(Pending {
@@ -245,19 +220,14 @@ impl Walk<'_> {
         visitor: &mut V,
     ) {
         let (first, count) = leaf_word::unpack(word);
-        let mut fetched = [(0u32, [Vec3::ZERO; 3]); MAX_LEAF_SIZE as usize];
-        for (k, slot) in (first..first + count).enumerate() {
-            fetched[k] = self.tree.triangle(slot);
-        }
-        let triangles = &fetched[..count as usize];
-        for k in start..end {
-            let i = self.ids[k] as usize;
-            let ray = &self.rays[i];
-            let mut tmax = self.boxes[i].tmax;
-            let id = stream.id(self.first + i);
-            let prepared = PreparedRay { tmax, ..*ray };
-            test_triangles::<K, V>(&prepared, id, triangles.iter().copied(), &mut tmax, visitor);
-            self.boxes[i].tmax = tmax;
+        for batch in LeafBatch::fetch(first..first + count, |slot| self.tree.triangle(slot)) {
+            for k in start..end {
+                let i = self.ids[k] as usize;
+                let ray = &mut self.rays[i];
+                let mut tmax = ray.tmax;
+                batch.test::<K, V>(ray, stream.id(self.first + i), &mut tmax, visitor);
+                ray.tmax = tmax;
+            }
         }
     }
 }
@@ -278,31 +248,3 @@ const SPREAD: [u64; 16] = {
     }
     table
 };
-
-/// The diagonal `(+-1, +-1, +-1)` of the octant in `octant_mask`, or zero for mask 0.
-fn octant_diagonal(octant_mask: u8) -> [f32; 3] {
-    if octant_mask == 0 {
-        return [0.0; 3];
-    }
-    let octant = octant_mask.trailing_zeros();
-    [0, 1, 2].map(|axis| if octant & (1 << axis) != 0 { -1.0 } else { 1.0 })
-}
-
-/// The node's used slots, farthest first along `diagonal` (so that the nearest is popped
-/// first); by slot when the diagonal is zero.
-fn farthest_first(node: &WideNode, diagonal: [f32; 3]) -> impl Iterator<Item = usize> {
-    let mut order = [(0.0f32, 0usize); WIDTH];
-    let mut n = 0;
-    for slot in 0..WIDTH {
-        let b = node.slot_bounds(slot);
-        if b.is_empty() {
-            continue;
-        }
-        let c = b.center();
-        let key = -(c.x * diagonal[0] + c.y * diagonal[1] + c.z * diagonal[2]);
-        order[n] = (key, slot);
-        n += 1;
-    }
-    order[..n].sort_by(|a, b| a.0.total_cmp(&b.0).then(b.1.cmp(&a.1)));
-    order.into_iter().take(n).map(|(_, slot)| slot)
-}

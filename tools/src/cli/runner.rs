@@ -15,7 +15,9 @@
 //! with a parallel iterator, batched ones turn on parallel batching); `None` runs per-ray
 //! queries on the calling thread and batched ones in rayon's default pool.
 
-use raybatch::{AnyAccel, BatchOptions, BatchOrdering, Hit, Kernel, PartitionKernel, Ray};
+use raybatch::{
+    AnyAccel, BatchError, BatchOptions, BatchOrdering, Hit, Kernel, PartitionKernel, Ray,
+};
 use rayon::prelude::*;
 use rayon::{ThreadPool, ThreadPoolBuildError, ThreadPoolBuilder};
 
@@ -237,40 +239,47 @@ impl Answers {
 
     fn fill_closest(&mut self, tree: &AnyAccel, query: &Query, rays: &[Ray]) {
         let kernel = query.kernel;
-        let answer = |r: &Ray| tree.cast_ray_with(r, kernel);
-        match query.engine {
-            Engine::PerRay if query.parallel() => rays
-                .par_iter()
-                .map(answer)
-                .collect_into_vec(&mut self.closest),
-            Engine::PerRay => self.closest.extend(rays.iter().map(answer)),
-            Engine::Batched { .. } => {
-                self.closest.resize(rays.len(), None);
-                let (options, size) = (query.batch_options(), query.calls_of(rays.len()));
-                for (rays, hits) in rays.chunks(size).zip(self.closest.chunks_mut(size)) {
-                    tree.cast_rays_with(rays, hits, &options)
-                        .expect("one answer slot per ray");
-                }
-            }
-        }
+        fill(
+            &mut self.closest,
+            None,
+            query,
+            rays,
+            |r| tree.cast_ray_with(r, kernel),
+            |r, out, options| tree.cast_rays_with(r, out, options),
+        );
     }
 
     fn fill_occluded(&mut self, tree: &AnyAccel, query: &Query, rays: &[Ray]) {
         let kernel = query.kernel;
-        let answer = |r: &Ray| tree.occluded_with(r, kernel);
-        match query.engine {
-            Engine::PerRay if query.parallel() => rays
-                .par_iter()
-                .map(answer)
-                .collect_into_vec(&mut self.occluded),
-            Engine::PerRay => self.occluded.extend(rays.iter().map(answer)),
-            Engine::Batched { .. } => {
-                self.occluded.resize(rays.len(), false);
-                let (options, size) = (query.batch_options(), query.calls_of(rays.len()));
-                for (rays, out) in rays.chunks(size).zip(self.occluded.chunks_mut(size)) {
-                    tree.occluded_batch_with(rays, out, &options)
-                        .expect("one answer slot per ray");
-                }
+        fill(
+            &mut self.occluded,
+            false,
+            query,
+            rays,
+            |r| tree.occluded_with(r, kernel),
+            |r, out, options| tree.occluded_batch_with(r, out, options),
+        );
+    }
+}
+
+/// Answers `rays` into `out` with the query's engine: `per_ray` on each ray (in parallel if the
+/// query has threads), or `batch` on calls of the query's batch size.
+fn fill<T: Clone + Send>(
+    out: &mut Vec<T>,
+    blank: T,
+    query: &Query,
+    rays: &[Ray],
+    per_ray: impl Fn(&Ray) -> T + Sync + Send,
+    batch: impl Fn(&[Ray], &mut [T], &BatchOptions) -> Result<(), BatchError>,
+) {
+    match query.engine {
+        Engine::PerRay if query.parallel() => rays.par_iter().map(per_ray).collect_into_vec(out),
+        Engine::PerRay => out.extend(rays.iter().map(per_ray)),
+        Engine::Batched { .. } => {
+            out.resize(rays.len(), blank);
+            let (options, size) = (query.batch_options(), query.calls_of(rays.len()));
+            for (rays, out) in rays.chunks(size).zip(out.chunks_mut(size)) {
+                batch(rays, out, &options).expect("one answer slot per ray");
             }
         }
     }

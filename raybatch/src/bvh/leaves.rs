@@ -1,0 +1,65 @@
+//! The triangles of a tree's leaves, in leaf-slot order: the mesh (shared, never copied or
+//! reordered), the triangle id of every slot, and optionally a copy of each slot's corners.
+//!
+//! Leaves address their triangles as ranges of slots, so a leaf's triangles are contiguous here.
+//! Reading one through the mesh takes two dependent loads (id, then indices, then vertices); the
+//! optional corner copy ([`BuildOptions::leaf_corners`], 36 more bytes per triangle) reads them
+//! from one contiguous block instead. Every tree built from the SAH builder keeps one of these.
+
+use std::sync::Arc;
+
+use glam::Vec3;
+
+use super::build::BuildOptions;
+use crate::mesh::Mesh;
+
+/// A tree's leaf triangles (see the module docs).
+#[derive(Clone, Debug)]
+pub(crate) struct LeafTriangles {
+    mesh: Arc<Mesh>,
+    /// Slot to triangle id (degenerate triangles have no slot).
+    order: Vec<u32>,
+    /// Corners of each slot's triangle, if `leaf_corners` (else empty).
+    corners: Vec<[Vec3; 3]>,
+}
+
+impl LeafTriangles {
+    /// The triangles of `order` (the builder's slot order) over `mesh`.
+    pub(crate) fn new(mesh: Arc<Mesh>, order: Vec<u32>, options: &BuildOptions) -> Self {
+        let corners = if options.leaf_corners {
+            order.iter().map(|&id| mesh.triangle(id)).collect()
+        } else {
+            Vec::new()
+        };
+        Self {
+            mesh,
+            order,
+            corners,
+        }
+    }
+
+    /// The mesh the slots refer to.
+    pub(crate) fn mesh(&self) -> &Arc<Mesh> {
+        &self.mesh
+    }
+
+    /// Number of slots.
+    pub(crate) fn len(&self) -> usize {
+        self.order.len()
+    }
+
+    /// Slot `slot`: its triangle id and corners.
+    #[inline(always)]
+    pub(crate) fn get(&self, slot: u32) -> (u32, [Vec3; 3]) {
+        let id = self.order[slot as usize];
+        match self.corners.get(slot as usize) {
+            Some(corners) => (id, *corners),
+            None => (id, self.mesh.triangle(id)),
+        }
+    }
+
+    /// Bytes added to the mesh: the slot order and the corner copy.
+    pub(crate) fn heap_bytes(&self) -> usize {
+        self.order.len() * size_of::<u32>() + self.corners.len() * size_of::<[Vec3; 3]>()
+    }
+}
