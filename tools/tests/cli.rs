@@ -334,6 +334,40 @@ fn passes_and_batch_size_keep_the_output() {
     }
 }
 
+/// `rays` writes the benchmark ray sets as ray files: the same seed gives the same bytes, and
+/// `query` reads them.
+#[test]
+fn rays_writes_repeatable_ray_files() {
+    let dir = TempDir::new("rays");
+    let (mesh, _) = write_inputs(&dir, &[]);
+    let mesh_arg = mesh.to_str().unwrap();
+    let write = |name: &str, set: &str, seed: &str| {
+        let out = dir.path(name);
+        let args = ["rays", "--mesh", mesh_arg, "--set", set, "--count", "500"];
+        let output =
+            raybatch(&[&args[..], &["--seed", seed, "--out", out.to_str().unwrap()]].concat());
+        assert!(output.status.success(), "{}", stderr(&output));
+        std::fs::read(&out).unwrap()
+    };
+    // Camera rays are a pixel grid: the seed does not change them.
+    for (set, seeded) in [
+        ("incoherent", true),
+        ("line-of-sight", true),
+        ("camera", false),
+    ] {
+        let a = write("a.bin", set, "7");
+        assert_eq!(a.len(), 500 * 32, "{set}");
+        assert!(a == write("b.bin", set, "7"), "{set}: not repeatable");
+        assert_eq!(a != write("c.bin", set, "8"), seeded, "{set}: seed");
+    }
+    let (_, line) = query_ok(&dir, &mesh, &dir.path("a.bin"), &["--kind", "closest"]);
+    assert_eq!(json_int(&line, "rays"), Some(500), "{line}");
+    let bad = raybatch(&[
+        "rays", "--mesh", mesh_arg, "--set", "sideways", "--count", "5", "--out", "x",
+    ]);
+    assert_eq!(bad.status.code(), Some(2), "{}", stderr(&bad));
+}
+
 #[test]
 fn empty_ray_file_gives_empty_output() {
     let dir = TempDir::new("empty");

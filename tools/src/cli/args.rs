@@ -12,6 +12,7 @@ use std::str::FromStr;
 
 use raybatch::bvh::build::MAX_LEAF_SIZE;
 use raybatch::{AccelKind, Kernel};
+use raybatch_tools::scenes::RaySet;
 
 use crate::bench::SCENE_NAMES;
 use crate::error::CliError;
@@ -27,7 +28,9 @@ Usage:
   raybatch bench [--mesh FILE.obj | --scenes LIST] [--rays N] [--leaf N] [--quick]
   raybatch query --mesh MESH.obj --rays RAYS.bin --kind closest|any --out HITS.bin
                  [--tree {trees}] [--kernel watertight|moller-trumbore]
-                 [--leaf N] [--batched] [--threads N]
+                 [--leaf N] [--batched] [--threads N] [--passes N] [--batch-size N]
+                 [--leaf-corners]
+  raybatch rays --mesh MESH.obj --set SET --count N --out RAYS.bin [--seed S]
   raybatch --help
 
 bench: times tree builds and queries, per ray and batched, and prints Markdown tables per
@@ -66,6 +69,13 @@ prints one JSON line of statistics on stderr.
                     all in one call), e.g. 4096 for a game frame's line-of-sight work
   --leaf-corners    keep a copy of each triangle's corners in leaf order (36 more bytes per
                     triangle, fewer dependent loads; the same answers)
+
+rays: writes a ray file in the format `query` reads: the ray sets of `bench`, aimed at a mesh
+treated as one object, so that measurements can be repeated on the same rays.
+  --set SET         incoherent, outside-in, camera, short or line-of-sight
+  --count N         number of rays
+  --seed S          the generator's seed (default 1); the same seed gives the same file on
+                    every machine
 
 Exit codes: 0 success, 1 bad input or output file, 2 bad command line.
 ",
@@ -110,7 +120,11 @@ fn tree_list() -> String {
 }
 
 /// Usage line of the tool as a whole.
-pub const TOP_USAGE: &str = "usage: raybatch bench|query [FLAGS] (see raybatch --help)";
+pub const TOP_USAGE: &str = "usage: raybatch bench|query|rays [FLAGS] (see raybatch --help)";
+
+/// Usage line of `raybatch rays`.
+pub const RAYS_USAGE: &str =
+    "usage: raybatch rays --mesh MESH.obj --set SET --count N --out RAYS.bin [--seed S]";
 
 /// Default largest leaf size.
 const DEFAULT_LEAF: u32 = 4;
@@ -121,6 +135,22 @@ pub enum Command {
     Help,
     Bench(BenchArgs),
     Query(QueryArgs),
+    Rays(RaysArgs),
+}
+
+/// Flags of `raybatch rays`.
+#[derive(Debug)]
+pub struct RaysArgs {
+    /// The mesh the rays are aimed at (treated as one object).
+    pub mesh: PathBuf,
+    /// Which ray set.
+    pub set: RaySet,
+    /// How many rays.
+    pub count: usize,
+    /// Where to write them.
+    pub out: PathBuf,
+    /// The generator's seed.
+    pub seed: u64,
 }
 
 /// Flags of `raybatch bench`.
@@ -166,10 +196,11 @@ pub fn parse(args: Vec<OsString>) -> Result<Command, CliError> {
     }
     let mut cursor = Cursor::new(args);
     match cursor.next_word()?.as_deref() {
-        None => Err(CliError::usage("missing command (bench or query)")),
+        None => Err(CliError::usage("missing command (bench, query or rays)")),
         Some("help") => Ok(Command::Help),
         Some("bench") => parse_bench(&mut cursor).map(Command::Bench),
         Some("query") => parse_query(&mut cursor).map(Command::Query),
+        Some("rays") => parse_rays(&mut cursor).map(Command::Rays),
         Some(other) => Err(CliError::usage(format!("unknown command '{other}'"))),
     }
 }
@@ -195,6 +226,37 @@ fn parse_bench(cursor: &mut Cursor) -> Result<BenchArgs, CliError> {
         rays,
         leaf: leaf.unwrap_or(DEFAULT_LEAF),
         quick: quick.unwrap_or(false),
+    })
+}
+
+fn parse_rays(cursor: &mut Cursor) -> Result<RaysArgs, CliError> {
+    let (mut mesh, mut set, mut count, mut out, mut seed) = (None, None, None, None, None);
+    while let Some(flag) = cursor.next_flag()? {
+        match flag.as_str() {
+            "--mesh" => set_once(&mut mesh, &flag, cursor.path(&flag)?)?,
+            "--set" => set_once(&mut set, &flag, ray_set(&cursor.text(&flag)?)?)?,
+            "--count" => set_once(&mut count, &flag, cursor.positive(&flag)?)?,
+            "--out" => set_once(&mut out, &flag, cursor.path(&flag)?)?,
+            "--seed" => set_once(&mut seed, &flag, cursor.number(&flag)?)?,
+            _ => return Err(unknown_flag(&flag)),
+        }
+    }
+    Ok(RaysArgs {
+        mesh: required(mesh, "--mesh")?,
+        set: required(set, "--set")?,
+        count: required(count, "--count")?,
+        out: required(out, "--out")?,
+        seed: seed.unwrap_or(1),
+    })
+}
+
+fn ray_set(text: &str) -> Result<RaySet, CliError> {
+    RaySet::from_name(text).ok_or_else(|| {
+        let names: Vec<&str> = RaySet::ALL.iter().map(|s| s.name()).collect();
+        CliError::usage(format!(
+            "unknown --set '{text}' (expected {})",
+            one_of(&names)
+        ))
     })
 }
 

@@ -35,6 +35,18 @@ pub fn decode_rays(bytes: &[u8]) -> Result<Vec<Ray>, Truncated> {
     Ok(bytes.chunks_exact(RAY_BYTES).map(decode_ray).collect())
 }
 
+/// Encodes rays as records (the inverse of [`decode_rays`], bit for bit).
+pub fn encode_rays(rays: &[Ray]) -> Vec<u8> {
+    let mut out = Vec::with_capacity(rays.len() * RAY_BYTES);
+    for r in rays {
+        let fields = [r.origin.to_array(), r.dir.to_array()].concat();
+        for value in fields.into_iter().chain([r.tmin, r.tmax]) {
+            out.extend_from_slice(&value.to_le_bytes());
+        }
+    }
+    out
+}
+
 fn decode_ray(record: &[u8]) -> Ray {
     let f = |i: usize| {
         let word = record[4 * i..4 * i + 4].try_into().expect("4-byte slice");
@@ -78,6 +90,7 @@ mod tests {
         let values: [f32; 8] = [1.0, 2.0, 3.0, 0.0, 0.0, -1.0, 0.5, f32::INFINITY];
         let bytes: Vec<u8> = values.iter().flat_map(|v| v.to_le_bytes()).collect();
         let rays = decode_rays(&bytes).unwrap();
+        assert_eq!(encode_rays(&rays), bytes);
         assert_eq!(
             rays,
             [Ray::with_range(

@@ -1,5 +1,6 @@
 //! `raybatch`, the command-line tool: `bench` measures the trees on built-in scenes or a user
-//! mesh, `query` answers a file of rays against an OBJ mesh. See [`args::help`].
+//! mesh, `query` answers a file of rays against an OBJ mesh, `rays` writes a benchmark ray set
+//! as a ray file. See [`args::help`].
 //!
 //! Exit codes: 0 on success, 1 when an input or output file is bad, 2 when the command line is.
 
@@ -13,6 +14,7 @@ mod inputs;
 mod json;
 mod measure;
 mod query;
+mod rays;
 mod runner;
 mod table;
 mod workload;
@@ -46,6 +48,7 @@ fn run(command: Command) -> Result<(), CliError> {
         }
         Command::Bench(a) => bench::run(&a),
         Command::Query(a) => query::run(&a),
+        Command::Rays(a) => rays::run(&a),
     }
 }
 
@@ -54,6 +57,7 @@ fn usage_for(args: &[OsString]) -> String {
     match args.first().and_then(|a| a.to_str()) {
         Some("bench") => args::BENCH_USAGE.to_string(),
         Some("query") => args::query_usage(),
+        Some("rays") => args::RAYS_USAGE.to_string(),
         _ => args::TOP_USAGE.to_string(),
     }
 }
