@@ -75,6 +75,13 @@ pub trait Footprint {
     /// Bytes the structure adds to the mesh (nodes, triangle order, copies).
     fn heap_bytes(&self) -> usize;
 
+    /// Bytes kept beside the structure only to report hits in the caller's triangle ids (the
+    /// permutation [`crate::permuted::Permuted`] holds for a structure that reorders the
+    /// mesh); 0 for structures that keep the ids.
+    fn id_map_bytes(&self) -> usize {
+        0
+    }
+
     /// Extra bytes per triangle of the mesh.
     fn bytes_per_triangle(&self) -> f64 {
         self.heap_bytes() as f64 / self.triangle_count().max(1) as f64

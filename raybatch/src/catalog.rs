@@ -11,12 +11,15 @@ use std::sync::Arc;
 
 use crate::accel::{Accel, Footprint};
 use crate::batch::BatchOptions;
+use crate::bvh::build::MAX_LEAF_SIZE;
 use crate::bvh::{AabbTree, BuildError, BuildOptions, QuantizedAabbTree};
 use crate::geom::{Kernel, Ray};
 use crate::hit::Hit;
 use crate::mesh::Mesh;
+use crate::permuted::Permuted;
 use crate::query::{BatchError, BatchQueries, RayQueries};
 use crate::wide::WideTree;
+use crate::zbt::{HybridOptions, HybridTree, Rejected, ZbtError, ZbtOptions, ZeroByteTree};
 
 /// A kind of acceleration structure.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -27,11 +30,24 @@ pub enum AccelKind {
     Quantized,
     /// [`WideTree`]: the same tree collapsed to 4 children per node, SIMD box tests.
     Bvh4,
+    /// [`ZeroByteTree`]: no memory beside the mesh, boxes recomputed, per-thread box cache.
+    Zbt,
+    /// [`ZeroByteTree`] with the box cache off: every box recomputed at every visit.
+    ZbtNoCache,
+    /// [`HybridTree`]: stored boxes down to chunks of 512 triangles, zero-byte trees below.
+    Hybrid,
 }
 
 impl AccelKind {
     /// Every kind.
-    pub const ALL: [AccelKind; 3] = [AccelKind::Aabb, AccelKind::Quantized, AccelKind::Bvh4];
+    pub const ALL: [AccelKind; 6] = [
+        AccelKind::Aabb,
+        AccelKind::Quantized,
+        AccelKind::Bvh4,
+        AccelKind::Zbt,
+        AccelKind::ZbtNoCache,
+        AccelKind::Hybrid,
+    ];
 
     /// The fastest exact structure on our measurements: the 4-wide tree answers single rays
     /// 1.5 to 1.8 times as fast as the binary trees on the bunny, the terrain and the city
@@ -45,6 +61,9 @@ impl AccelKind {
             AccelKind::Aabb => "aabb",
             AccelKind::Quantized => "quantized",
             AccelKind::Bvh4 => "bvh4",
+            AccelKind::Zbt => "zbt",
+            AccelKind::ZbtNoCache => "zbt-nocache",
+            AccelKind::Hybrid => "hybrid",
         }
     }
 
@@ -54,6 +73,9 @@ impl AccelKind {
             AccelKind::Aabb => "binary SAH tree, 32-byte nodes",
             AccelKind::Quantized => "binary SAH tree, 16-byte quantized nodes",
             AccelKind::Bvh4 => "4-wide tree collapsed from the SAH tree, SIMD box tests",
+            AccelKind::Zbt => "zero-byte tree: no memory beside the mesh, box cache",
+            AccelKind::ZbtNoCache => "zero-byte tree without the box cache",
+            AccelKind::Hybrid => "AABB tree over zero-byte trees of 512-triangle chunks",
         }
     }
 
@@ -62,7 +84,11 @@ impl AccelKind {
     /// with another ordering gives the same structure.
     pub fn uses_child_ordering(self) -> bool {
         match self {
-            AccelKind::Aabb | AccelKind::Quantized => true,
+            AccelKind::Aabb
+            | AccelKind::Quantized
+            | AccelKind::Zbt
+            | AccelKind::ZbtNoCache
+            | AccelKind::Hybrid => true,
             AccelKind::Bvh4 => false,
         }
     }
@@ -72,18 +98,58 @@ impl AccelKind {
         Self::ALL.into_iter().find(|k| k.name() == name)
     }
 
-    /// Builds the structure over `mesh`.
+    /// Builds the structure over `mesh`. Every structure answers in `mesh`'s triangle ids:
+    /// the zero-byte trees, which reorder the triangles, are wrapped in [`Permuted`] (their
+    /// [`Footprint::id_map_bytes`]). They read the options as [`ZbtOptions::from`] does.
     pub fn build(
         self,
         mesh: impl Into<Arc<Mesh>>,
         options: &BuildOptions,
     ) -> Result<AnyAccel, BuildError> {
         let mesh = mesh.into();
+        if !(1..=MAX_LEAF_SIZE).contains(&options.max_leaf_size) {
+            return Err(BuildError::BadLeafSize(options.max_leaf_size));
+        }
         Ok(match self {
             AccelKind::Aabb => AnyAccel::new(<AabbTree>::build(mesh, options)?),
             AccelKind::Quantized => AnyAccel::new(QuantizedAabbTree::build(mesh, options)?),
             AccelKind::Bvh4 => AnyAccel::new(WideTree::build(mesh, options)?),
+            AccelKind::Zbt | AccelKind::ZbtNoCache => {
+                let zbt = ZbtOptions {
+                    box_cache: self == AccelKind::Zbt,
+                    ..ZbtOptions::from(options)
+                };
+                let (tree, permutation) =
+                    ZeroByteTree::build(Arc::unwrap_or_clone(mesh), &zbt).map_err(too_large)?;
+                AnyAccel::new(Permuted::new(tree, permutation))
+            }
+            AccelKind::Hybrid => {
+                let hybrid = HybridOptions {
+                    zbt: ZbtOptions::from(options),
+                    ..HybridOptions::default()
+                };
+                let (tree, permutation) =
+                    HybridTree::build(Arc::unwrap_or_clone(mesh), &hybrid).map_err(too_large)?;
+                AnyAccel::new(Permuted::new(tree, permutation))
+            }
         })
+    }
+}
+
+/// A zero-byte build error as the catalog's [`BuildError`] (only the size limits can occur:
+/// the catalog passes valid leaf and chunk sizes).
+fn too_large(rejected: Rejected) -> BuildError {
+    let (needed, max, format) = match rejected.error {
+        ZbtError::TooManyTriangles { count, max } => (count, max, "zbt (triangles)"),
+        ZbtError::TooManyVertices { count, max } => (count, max, "zbt (vertices)"),
+        ZbtError::BadLeafSize(n) | ZbtError::BadChunkSize(n) => {
+            unreachable!("the catalog passes valid sizes, not {n}")
+        }
+    };
+    BuildError::TooLarge {
+        format,
+        needed,
+        max,
     }
 }
 
@@ -195,6 +261,9 @@ impl Footprint for AnyAccel {
     }
     fn heap_bytes(&self) -> usize {
         self.inner.heap_bytes()
+    }
+    fn id_map_bytes(&self) -> usize {
+        self.inner.id_map_bytes()
     }
 }
 

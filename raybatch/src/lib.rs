@@ -24,8 +24,10 @@
 //! - the interface: [`accel`] (what every structure implements), [`hit`] (hits, the tie rule,
 //!   visitors), [`workspace`] (per-thread memory);
 //! - structures: [`bvh`] (binary BVHs: build, ordering, node formats), [`wide`] (the 4-wide
-//!   BVH collapsed from it);
+//!   BVH collapsed from it), [`zbt`] (the zero-byte tree and its hybrid, no memory beside the
+//!   mesh);
 //! - engines: [`traverse`] (how a BVH walks one ray or a stream), [`batch`] (batch machinery);
+//! - adapters: [`permuted`] (a reordering structure answering in the original ids);
 //! - what users call: [`query`] (per-ray and batched queries, brute force), [`catalog`] (every
 //!   structure by name, behind one dynamic type).
 
@@ -40,12 +42,14 @@ pub mod geom;
 pub mod hit;
 pub mod mesh;
 mod parallel;
+pub mod permuted;
 pub mod query;
 #[cfg(test)]
 mod test_support;
 pub mod traverse;
 pub mod wide;
 pub mod workspace;
+pub mod zbt;
 
 pub use accel::{Accel, Footprint, RayStream};
 pub use batch::{BatchOptions, BatchOrdering, PartitionKernel};
@@ -58,3 +62,4 @@ pub use mesh::{Mesh, MeshError};
 pub use query::{BatchError, BatchQueries, RayQueries};
 pub use wide::WideTree;
 pub use workspace::{StructureId, Workspace};
+pub use zbt::{HybridTree, ZeroByteTree};

@@ -11,9 +11,10 @@ use glam::DVec3;
 use raybatch::geom::PreparedRay;
 use raybatch::hit::RAY_DONE;
 use raybatch::query::single::trace_one;
+use raybatch::zbt::ZbtOptions;
 use raybatch::{
-    AabbTree, Accel, AccelKind, BuildOptions, Hit, Kernel, Mesh, QuantizedAabbTree, Ray,
-    RayQueries, Visitor, WideTree,
+    AabbTree, Accel, AccelKind, BuildOptions, Hit, HybridTree, Kernel, Mesh, QuantizedAabbTree,
+    Ray, RayQueries, Visitor, WideTree, ZeroByteTree,
 };
 
 /// Keeps the first `n` hits it is shown, then ends the ray.
@@ -105,6 +106,21 @@ fn first_n_hits_visitor_on_every_structure() {
                 &WideTree::build(mesh.clone(), &options).unwrap(),
                 &rays,
             ),
+            AccelKind::Zbt | AccelKind::ZbtNoCache => {
+                let zbt = ZbtOptions {
+                    box_cache: kind == AccelKind::Zbt,
+                    ..ZbtOptions::default()
+                };
+                check(
+                    name,
+                    &ZeroByteTree::build(mesh.clone(), &zbt).unwrap().0,
+                    &rays,
+                )
+            }
+            AccelKind::Hybrid => {
+                let (tree, _) = HybridTree::build(mesh.clone(), &Default::default()).unwrap();
+                check(name, &tree, &rays)
+            }
         }
     }
 }

@@ -12,9 +12,12 @@ use common::meshes::icosphere_with_duplicates;
 use common::oracles::{HitBits, all_bits, bits, opt_bits};
 use common::rays::hard_rays;
 use common::zoo::LEAF_SIZES;
+use raybatch::permuted::Permuted;
+use raybatch::zbt::{HybridOptions, ZbtOptions};
 use raybatch::{
     AabbTree, Accel, AccelKind, AnyAccel, BatchOptions, BatchOrdering, BatchQueries, BuildOptions,
-    ChildOrdering, Footprint, Hit, Kernel, Mesh, QuantizedAabbTree, Ray, RayQueries, WideTree,
+    ChildOrdering, Footprint, Hit, HybridTree, Kernel, Mesh, QuantizedAabbTree, Ray, RayQueries,
+    WideTree, ZeroByteTree,
 };
 
 /// Every hit of a batch as sorted `(ray index, hit bits)`.
@@ -39,6 +42,7 @@ fn compare_typed<T: Accel + Footprint>(
             f.triangle_count(),
             f.node_count(),
             f.heap_bytes(),
+            f.id_map_bytes(),
             f.bytes_per_triangle().to_bits(),
         )
     };
@@ -175,6 +179,22 @@ fn typed_queries_match_any_accel() {
                     AccelKind::Bvh4 => {
                         let typed = WideTree::build(mesh, &options).unwrap();
                         compare_typed(&name, &typed, &any, &rays)
+                    }
+                    AccelKind::Zbt | AccelKind::ZbtNoCache => {
+                        let zbt = ZbtOptions {
+                            box_cache: kind == AccelKind::Zbt,
+                            ..ZbtOptions::from(&options)
+                        };
+                        let (tree, perm) = ZeroByteTree::build((*mesh).clone(), &zbt).unwrap();
+                        compare_typed(&name, &Permuted::new(tree, perm), &any, &rays)
+                    }
+                    AccelKind::Hybrid => {
+                        let hybrid = HybridOptions {
+                            zbt: ZbtOptions::from(&options),
+                            ..HybridOptions::default()
+                        };
+                        let (tree, perm) = HybridTree::build((*mesh).clone(), &hybrid).unwrap();
+                        compare_typed(&name, &Permuted::new(tree, perm), &any, &rays)
                     }
                 };
                 if let Err(e) = result {

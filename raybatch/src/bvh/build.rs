@@ -150,19 +150,19 @@ pub struct BuiltTree {
 
 /// A box in SIMD-friendly form, for the hot loops of the build (binning, partition).
 #[derive(Clone, Copy, Debug)]
-struct Box3A {
-    min: Vec3A,
-    max: Vec3A,
+pub(crate) struct Box3A {
+    pub(crate) min: Vec3A,
+    pub(crate) max: Vec3A,
 }
 
 impl Box3A {
-    const EMPTY: Self = Self {
+    pub(crate) const EMPTY: Self = Self {
         min: Vec3A::splat(f32::INFINITY),
         max: Vec3A::splat(f32::NEG_INFINITY),
     };
 
     #[inline(always)]
-    fn union(self, other: Self) -> Self {
+    pub(crate) fn union(self, other: Self) -> Self {
         Self {
             min: self.min.min(other.min),
             max: self.max.max(other.max),
@@ -170,24 +170,48 @@ impl Box3A {
     }
 
     #[inline(always)]
-    fn grow(self, p: Vec3A) -> Self {
+    pub(crate) fn grow(self, p: Vec3A) -> Self {
         Self {
             min: self.min.min(p),
             max: self.max.max(p),
         }
     }
 
-    fn aabb(self) -> Aabb {
+    pub(crate) fn aabb(self) -> Aabb {
         Aabb::new(self.min.into(), self.max.into())
     }
 }
 
 /// One triangle during the build.
 #[derive(Clone, Copy, Debug)]
-struct Prim {
-    bounds: Box3A,
-    center: Vec3A,
-    id: u32,
+pub(crate) struct Prim {
+    pub(crate) bounds: Box3A,
+    pub(crate) center: Vec3A,
+    pub(crate) id: u32,
+}
+
+impl Prim {
+    /// Triangle `id` of `mesh`.
+    pub(crate) fn of(mesh: &Mesh, id: u32) -> Self {
+        let bounds = Aabb::from_points(&mesh.triangle(id));
+        Prim {
+            bounds: Box3A {
+                min: bounds.min.into(),
+                max: bounds.max.into(),
+            },
+            center: bounds.center().into(),
+            id,
+        }
+    }
+}
+
+/// Every non-degenerate triangle of `mesh`, in id order (degenerate ones are never hit, so no
+/// tree holds them).
+pub(crate) fn prims_of(mesh: &Mesh) -> Vec<Prim> {
+    (0..mesh.triangle_count() as u32)
+        .filter(|&id| !mesh.is_degenerate(id))
+        .map(|id| Prim::of(mesh, id))
+        .collect()
 }
 
 /// A node during the build; children are indices into the same vector.
@@ -205,20 +229,7 @@ pub fn build(mesh: &Mesh, options: &BuildOptions) -> Result<BuiltTree, BuildErro
     if options.max_leaf_size == 0 || options.max_leaf_size > MAX_LEAF_SIZE {
         return Err(BuildError::BadLeafSize(options.max_leaf_size));
     }
-    let mut prims: Vec<Prim> = (0..mesh.triangle_count() as u32)
-        .filter(|&id| !mesh.is_degenerate(id))
-        .map(|id| {
-            let bounds = Aabb::from_points(&mesh.triangle(id));
-            Prim {
-                bounds: Box3A {
-                    min: bounds.min.into(),
-                    max: bounds.max.into(),
-                },
-                center: bounds.center().into(),
-                id,
-            }
-        })
-        .collect();
+    let mut prims = prims_of(mesh);
     if prims.is_empty() {
         return Ok(BuiltTree::default());
     }
@@ -382,9 +393,9 @@ fn shifted(node: &TempNode, by: u32) -> TempNode {
 
 /// The box of a set of triangles and the box of their centroids.
 #[derive(Clone, Copy, Debug)]
-struct Extent {
-    bounds: Box3A,
-    centers: Box3A,
+pub(crate) struct Extent {
+    pub(crate) bounds: Box3A,
+    pub(crate) centers: Box3A,
 }
 
 impl Extent {
@@ -393,7 +404,7 @@ impl Extent {
         centers: Box3A::EMPTY,
     };
 
-    fn of(prims: &[Prim]) -> Self {
+    pub(crate) fn of(prims: &[Prim]) -> Self {
         prims.iter().fold(Self::EMPTY, |e, p| e.with(p))
     }
 
@@ -407,7 +418,23 @@ impl Extent {
 }
 
 /// A split: the axis, the size of the left part and both parts' extents.
-type Parts = (usize, usize, Extent, Extent);
+pub(crate) type Parts = (usize, usize, Extent, Extent);
+
+/// Splits `prims` (at least 2, with extent `extent`) in two non-empty parts in place: the
+/// cheapest SAH plane, or the centroid median below [`SAH_DEPTH_LIMIT`] or where the SAH
+/// finds no plane. For builders that decide leaves by their own rule (the zero-byte tree).
+pub(crate) fn split_in_two(prims: &mut [Prim], extent: &Extent, depth: usize) -> Parts {
+    let (bounds, centers) = (&extent.bounds.aabb(), &extent.centers.aabb());
+    let median = Split::Median {
+        axis: centers.extent().max_position(),
+    };
+    let split = if depth >= SAH_DEPTH_LIMIT {
+        median
+    } else {
+        best_binned_split(prims, bounds, centers).map_or(median, |(split, _)| split)
+    };
+    partition(prims, centers, split)
+}
 
 fn bin_of(center: f32, min: f32, scale: f32) -> usize {
     (((center - min) * scale) as usize).min(BINS - 1)

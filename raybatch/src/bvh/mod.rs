@@ -39,9 +39,9 @@ pub struct Node {
     pub first: u32,
     /// Number of triangle slots, `first..first + count` (0 for a node with none).
     pub count: u32,
-    /// Children `first_child` and `first_child + 1`; 0 when the node has none (the root is node
-    /// 0, so it is never a child).
-    pub first_child: u32,
+    /// The two children, nearer-first order decided by `order`; `[0, 0]` when the node has
+    /// none (the root is node 0, so it is never a child).
+    pub children: [u32; 2],
     /// Child ordering byte: bit `o` set means rays of octant `o` visit the second child first.
     pub order: u8,
 }
@@ -53,18 +53,19 @@ impl Node {
         Self {
             first,
             count,
-            first_child: 0,
+            children: [0, 0],
             order: 0,
         }
     }
 
-    /// An internal node with children `first_child` and `first_child + 1`.
+    /// An internal node with children `first_child` and `first_child + 1` (the pair layout of
+    /// the AABB trees).
     #[inline(always)]
     pub fn internal(first_child: u32, order: u8) -> Self {
         Self {
             first: 0,
             count: 0,
-            first_child,
+            children: [first_child, first_child + 1],
             order,
         }
     }
@@ -72,7 +73,7 @@ impl Node {
     /// True if the node has children.
     #[inline(always)]
     pub fn has_children(&self) -> bool {
-        self.first_child != 0
+        self.children[0] != 0
     }
 }
 
@@ -82,8 +83,8 @@ impl Node {
 /// Contract the traversals rely on: every node's box contains its triangles' bounding boxes and
 /// its children's boxes (boxes may be larger than tight, never smaller); child indices are
 /// below [`Bvh::len`] and every path from the root is at most [`Bvh::depth`] nodes long.
-/// Children come in pairs; a node with one child pads the pair with a node whose box is
-/// [`Aabb::EMPTY`] (no ray enters it, so its contents are never read).
+/// Internal nodes have two children; a node with one child pads the pair with a node whose box
+/// is [`Aabb::EMPTY`] (no ray enters it, so its contents are never read).
 pub trait Bvh: Sync {
     /// Per-thread state box reads need (the zero-byte tree's box cache); `()` for stored boxes.
     type Cache: Default + Send + 'static;
@@ -104,13 +105,13 @@ pub trait Bvh: Sync {
     /// The box of node `index` (< `len()`).
     fn bounds(&self, index: u32, cache: &mut Self::Cache) -> Aabb;
 
-    /// The boxes of the children `first_child` and `first_child + 1` (a format that stores a
-    /// pair together may read both at once).
+    /// The boxes of the two children `children` (a format that stores a pair together may read
+    /// both at once).
     #[inline(always)]
-    fn child_bounds(&self, first_child: u32, cache: &mut Self::Cache) -> [Aabb; 2] {
+    fn child_bounds(&self, children: [u32; 2], cache: &mut Self::Cache) -> [Aabb; 2] {
         [
-            self.bounds(first_child, cache),
-            self.bounds(first_child + 1, cache),
+            self.bounds(children[0], cache),
+            self.bounds(children[1], cache),
         ]
     }
 

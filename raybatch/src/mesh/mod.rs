@@ -128,6 +128,16 @@ impl Mesh {
         })
     }
 
+    /// Wraps arrays known to be valid (taken from a [`Mesh`] and only reordered), skipping
+    /// the checks in release builds.
+    pub(crate) fn from_valid_parts(vertices: Vec<Vec3>, triangles: Vec<[u32; 3]>) -> Self {
+        debug_assert!(Self::new(vertices.clone(), triangles.clone()).is_ok());
+        Self {
+            vertices,
+            triangles,
+        }
+    }
+
     /// Parses OBJ text (see [`obj`]): polygons are fan-triangulated in file order, and
     /// triangle ids follow that order.
     pub fn from_obj_str(text: &str) -> Result<Self, MeshError> {

@@ -65,13 +65,13 @@ pub(crate) fn trace_below<B, K, V>(
             return;
         }
         if node.has_children() {
-            let c = node.first_child;
-            let [first, second] = tree.child_bounds(c, cache);
+            let [a, b] = node.children;
+            let [first, second] = tree.child_bounds(node.children, cache);
             let ((near, near_box), (far, far_box)) =
                 if second_child_first(node.order, ray.octant_mask) {
-                    ((c + 1, second), (c, first))
+                    ((b, second), (a, first))
                 } else {
-                    ((c, first), (c + 1, second))
+                    ((a, first), (b, second))
                 };
             let near_entry = near_box.entry(ray, *tmax);
             let far_entry = far_box.entry(ray, *tmax);

@@ -53,11 +53,11 @@ pub(crate) fn trace_stream<B, K, V>(
         let slots = node.first..node.first + node.count;
         test_leaf::<K, V>(stream, active, slots, |slot| tree.triangle(slot), visitor);
         if node.has_children() {
-            let c = node.first_child;
+            let [a, b] = node.children;
             let (near, far) = if second_child_first(node.order, stream.octant_mask()) {
-                (c + 1, c)
+                (b, a)
             } else {
-                (c, c + 1)
+                (a, b)
             };
             pending.push((far, active as u32));
             pending.push((near, active as u32));

@@ -1,0 +1,107 @@
+//! [`Permuted`]: a structure that reordered the mesh's triangles (the zero-byte trees),
+//! answering in the original triangle ids.
+//!
+//! The zero-byte trees hand the permutation to their caller instead of keeping it (it would cost
+//! 4 bytes per triangle). Where answers must be in the original ids anyway (the catalog, so
+//! that every structure answers alike; tools that write hit files), this adapter keeps it and
+//! maps each hit's id *before* the query's visitor sees it. The tie rule (lowest id on equal
+//! `t`) is then applied to the original ids, so closest hits equal those of any other
+//! structure over the original mesh, ties included.
+
+use crate::accel::{Accel, Footprint, RayStream};
+use crate::geom::{PreparedRay, TriangleTest};
+use crate::hit::{Hit, Visitor};
+
+/// A structure over a reordered mesh and the permutation back to the original ids.
+#[derive(Debug)]
+pub struct Permuted<A> {
+    inner: A,
+    to_original: Vec<u32>,
+}
+
+impl<A: Footprint> Permuted<A> {
+    /// Wraps `inner`, whose triangle `i` is triangle `to_original[i]` of the original mesh.
+    /// Panics if the permutation does not cover the structure's triangles (a caller bug: both
+    /// come from the same build).
+    pub fn new(inner: A, to_original: Vec<u32>) -> Self {
+        assert_eq!(inner.triangle_count(), to_original.len());
+        Self { inner, to_original }
+    }
+}
+
+impl<A> Permuted<A> {
+    /// The wrapped structure (answering in its own ids).
+    pub fn inner(&self) -> &A {
+        &self.inner
+    }
+
+    /// `permutation()[new id] = original id`.
+    pub fn permutation(&self) -> &[u32] {
+        &self.to_original
+    }
+}
+
+/// The visitor `inner`, fed original ids.
+struct ToOriginal<'a, V> {
+    to_original: &'a [u32],
+    inner: &'a mut V,
+}
+
+impl<V: Visitor> Visitor for ToOriginal<'_, V> {
+    #[inline(always)]
+    fn visit(&mut self, ray: u32, hit: Hit, tmax: &mut f32) {
+        let triangle = self.to_original[hit.triangle as usize];
+        self.inner.visit(ray, Hit { triangle, ..hit }, tmax);
+    }
+}
+
+impl<A: Accel> Accel for Permuted<A> {
+    type Scratch = A::Scratch;
+
+    #[inline]
+    fn trace<K: TriangleTest, V: Visitor>(
+        &self,
+        ray: &PreparedRay,
+        id: u32,
+        scratch: &mut Self::Scratch,
+        visitor: &mut V,
+    ) -> f32 {
+        let mut visitor = ToOriginal {
+            to_original: &self.to_original,
+            inner: visitor,
+        };
+        self.inner.trace::<K, _>(ray, id, scratch, &mut visitor)
+    }
+
+    fn trace_stream<K: TriangleTest, V: Visitor>(
+        &self,
+        stream: &mut RayStream<'_>,
+        scratch: &mut Self::Scratch,
+        visitor: &mut V,
+    ) {
+        let mut visitor = ToOriginal {
+            to_original: &self.to_original,
+            inner: visitor,
+        };
+        self.inner
+            .trace_stream::<K, _>(stream, scratch, &mut visitor)
+    }
+}
+
+impl<A: Footprint> Footprint for Permuted<A> {
+    fn name(&self) -> &'static str {
+        self.inner.name()
+    }
+    fn triangle_count(&self) -> usize {
+        self.inner.triangle_count()
+    }
+    fn node_count(&self) -> usize {
+        self.inner.node_count()
+    }
+    fn heap_bytes(&self) -> usize {
+        self.inner.heap_bytes()
+    }
+    fn id_map_bytes(&self) -> usize {
+        self.inner.id_map_bytes() + self.to_original.len() * size_of::<u32>()
+    }
+}

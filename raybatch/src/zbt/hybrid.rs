@@ -1,0 +1,280 @@
+//! [`HybridTree`] (the seed's future work): an ordinary AABB tree down to chunks of a few
+//! hundred triangles, each chunk a zero-byte tree.
+//!
+//! The top levels, which every ray walks and whose boxes a zero-byte tree would recompute most
+//! often, get stored boxes (36 bytes per top node, one top node per chunk, so well under a byte
+//! per triangle at the default chunk size); below them nothing is stored. Zero-byte child
+//! offsets are relative, so a chunk's tree works anywhere in the big array, and the 21-bit
+//! offset limit bounds the chunk size, not the mesh: the hybrid has no triangle limit (vertex
+//! indices must still fit 24 bits).
+//!
+//! Node numbering: top nodes are `0..top.len()`; the zero-byte node at triangle position `p`
+//! is `top.len() + p`. A mesh that fits one chunk has no top node: its root is zero-byte node 0.
+
+use glam::Vec3;
+
+use super::build::RangeBuilder;
+use super::cache::BoxCache;
+use super::packed::PackedMesh;
+use super::tree::count_nodes;
+use super::{MAX_TRIANGLES, Rejected, ZbtError, ZbtOptions, check_common};
+use crate::accel::Footprint;
+use crate::bvh::build::{Extent, Prim, prims_of, split_in_two};
+use crate::bvh::ordering::ordering_byte;
+use crate::bvh::{Bvh, Node};
+use crate::geom::Aabb;
+use crate::mesh::Mesh;
+use crate::workspace::StructureId;
+
+/// How to build a [`HybridTree`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct HybridOptions {
+    /// How each chunk's zero-byte tree is built (and whether boxes are cached).
+    pub zbt: ZbtOptions,
+    /// Most triangles per chunk (a zero-byte tree); sets above it are split by the SAH.
+    pub chunk_size: u32,
+}
+
+impl HybridOptions {
+    /// The default chunk size (see the README's hybrid table for the measurement).
+    pub const DEFAULT_CHUNK_SIZE: u32 = 512;
+}
+
+impl Default for HybridOptions {
+    fn default() -> Self {
+        Self {
+            zbt: ZbtOptions::default(),
+            chunk_size: Self::DEFAULT_CHUNK_SIZE,
+        }
+    }
+}
+
+/// A top node: its box, its children (top nodes, or zero-byte roots marked by [`ZBT_ROOT`]
+/// during the build), its ordering byte.
+#[derive(Clone, Copy, Debug)]
+struct TopNode {
+    bounds: Aabb,
+    children: [u32; 2],
+    order: u8,
+}
+
+/// During the build, a child that is a zero-byte root at position `p` is `ZBT_ROOT | p`.
+const ZBT_ROOT: u32 = 1 << 31;
+
+/// An AABB tree over zero-byte trees (see the module docs).
+#[derive(Debug)]
+pub struct HybridTree {
+    top: Vec<TopNode>,
+    packed: PackedMesh,
+    depth: usize,
+    node_count: usize,
+    id: StructureId,
+    options: HybridOptions,
+}
+
+impl HybridTree {
+    /// Builds the tree by reordering `mesh`'s triangles; returns it with the permutation
+    /// (`permutation[new id] = original id`). On error the mesh is handed back unchanged.
+    pub fn build(mesh: Mesh, options: &HybridOptions) -> Result<(Self, Vec<u32>), Rejected> {
+        if let Err(error) = check(&mesh, options) {
+            return Err(Rejected { error, mesh });
+        }
+        let mut prims = prims_of(&mesh);
+        let mut high = vec![0u32; prims.len()];
+        let mut top = Vec::new();
+        let depth = if prims.is_empty() {
+            0
+        } else {
+            let builder = TopBuilder {
+                chunk: RangeBuilder {
+                    mesh: &mesh,
+                    leaf_size: options.zbt.leaf_size,
+                    vertices: options.zbt.box_vertices,
+                    ordering: options.zbt.ordering,
+                    parallel: crate::parallel::enabled(options.zbt.parallel),
+                },
+                chunk_size: options.chunk_size as usize,
+            };
+            builder.build(&mut prims, &mut high, 0, 0, &mut top).1
+        };
+        let base = top.len() as u32;
+        for node in &mut top {
+            for child in &mut node.children {
+                if *child & ZBT_ROOT != 0 {
+                    *child = base + (*child & !ZBT_ROOT);
+                }
+            }
+        }
+        let (packed, permutation) = PackedMesh::pack(mesh, &prims, &high);
+        let chunk_nodes = top_chunk_roots(&top, base, packed.tree_len())
+            .map(|p| count_nodes(&packed, p))
+            .sum::<usize>();
+        let tree = Self {
+            node_count: top.len() + chunk_nodes,
+            top,
+            packed,
+            depth,
+            id: StructureId::new(),
+            options: *options,
+        };
+        Ok((tree, permutation))
+    }
+
+    /// The options the tree was built with.
+    pub fn options(&self) -> &HybridOptions {
+        &self.options
+    }
+
+    /// The vertex array (unchanged by the build).
+    pub fn vertices(&self) -> &[Vec3] {
+        self.packed.vertices()
+    }
+
+    /// The plain index array in the tree's triangle order (a copy, node data removed).
+    pub fn plain_triangles(&self) -> Vec<[u32; 3]> {
+        self.packed.plain_triangles()
+    }
+
+    /// A copy of the mesh in the tree's triangle order; triangle ids of hits refer to it.
+    pub fn to_mesh(&self) -> Mesh {
+        self.packed.to_mesh()
+    }
+
+    /// The mesh in the tree's triangle order, its arrays reused (the tree is gone).
+    pub fn into_mesh(self) -> Mesh {
+        self.packed.into_mesh()
+    }
+
+    /// Number of top nodes (stored boxes).
+    pub fn top_node_count(&self) -> usize {
+        self.top.len()
+    }
+}
+
+/// The limits of a hybrid tree.
+fn check(mesh: &Mesh, options: &HybridOptions) -> Result<(), ZbtError> {
+    check_common(mesh, options.zbt.leaf_size)?;
+    if !(1..=MAX_TRIANGLES).contains(&(options.chunk_size as usize)) {
+        return Err(ZbtError::BadChunkSize(options.chunk_size));
+    }
+    Ok(())
+}
+
+/// Positions of the zero-byte roots the top nodes point to (or the one root of a tree with no
+/// top node).
+fn top_chunk_roots(top: &[TopNode], base: u32, tree_len: u32) -> impl Iterator<Item = u32> {
+    let single = (top.is_empty() && tree_len > 0).then_some(0);
+    top.iter()
+        .flat_map(|n| n.children)
+        .filter(move |&c| c >= base)
+        .map(move |c| c - base)
+        .chain(single)
+}
+
+/// Builds the top levels down to chunks.
+struct TopBuilder<'a> {
+    chunk: RangeBuilder<'a>,
+    chunk_size: usize,
+}
+
+impl TopBuilder<'_> {
+    /// Builds the subtree over `prims` (tree positions `position..`), appending top nodes to
+    /// `top`; returns the subtree's root reference and its depth in nodes.
+    fn build(
+        &self,
+        prims: &mut [Prim],
+        high: &mut [u32],
+        position: u32,
+        depth: usize,
+        top: &mut Vec<TopNode>,
+    ) -> (u32, usize) {
+        if prims.len() <= self.chunk_size {
+            let chunk_depth = self.chunk.build(prims, high, depth);
+            return (ZBT_ROOT | position, chunk_depth);
+        }
+        let extent = Extent::of(prims);
+        let (axis, mid, left, right) = split_in_two(prims, &extent, depth);
+        let index = top.len() as u32;
+        top.push(TopNode {
+            bounds: extent.bounds.aabb(),
+            children: [0, 0],
+            order: ordering_byte(
+                self.chunk.ordering,
+                &left.bounds.aabb(),
+                &right.bounds.aabb(),
+                axis,
+            ),
+        });
+        let (lp, rp) = prims.split_at_mut(mid);
+        let (lh, rh) = high.split_at_mut(mid);
+        let (l, dl) = self.build(lp, lh, position, depth + 1, top);
+        let (r, dr) = self.build(rp, rh, position + mid as u32, depth + 1, top);
+        top[index as usize].children = [l, r];
+        (index, 1 + dl.max(dr))
+    }
+}
+
+impl Bvh for HybridTree {
+    type Cache = BoxCache;
+
+    fn len(&self) -> usize {
+        self.top.len() + self.packed.tree_len() as usize
+    }
+
+    #[inline(always)]
+    fn bounds(&self, index: u32, cache: &mut BoxCache) -> Aabb {
+        let base = self.top.len() as u32;
+        if index < base {
+            return self.top[index as usize].bounds;
+        }
+        let p = index - base;
+        if self.options.zbt.box_cache {
+            cache.get(self.id, index, || self.packed.bounds(p))
+        } else {
+            self.packed.bounds(p)
+        }
+    }
+
+    #[inline(always)]
+    fn node(&self, index: u32) -> Node {
+        let base = self.top.len() as u32;
+        match self.top.get(index as usize) {
+            Some(n) => Node {
+                first: 0,
+                count: 0,
+                children: n.children,
+                order: n.order,
+            },
+            None => self.packed.node(index - base, base),
+        }
+    }
+
+    #[inline(always)]
+    fn triangle(&self, slot: u32) -> (u32, [Vec3; 3]) {
+        self.packed.triangle(slot)
+    }
+
+    fn depth(&self) -> usize {
+        self.depth
+    }
+}
+
+impl Footprint for HybridTree {
+    fn name(&self) -> &'static str {
+        "hybrid"
+    }
+
+    fn triangle_count(&self) -> usize {
+        self.packed.triangle_count()
+    }
+
+    fn node_count(&self) -> usize {
+        self.node_count
+    }
+
+    /// The top nodes (the zero-byte chunks add nothing; the per-thread box cache is reported
+    /// on its own).
+    fn heap_bytes(&self) -> usize {
+        self.top.len() * size_of::<TopNode>()
+    }
+}

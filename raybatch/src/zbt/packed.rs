@@ -1,0 +1,139 @@
+//! A mesh whose index array carries zero-byte tree nodes ([`super::layout`]): reading a node,
+//! recomputing its box, reading a triangle, and unpacking the plain mesh again.
+//!
+//! Positions `0..tree_len` hold the tree's triangles (the non-degenerate ones); the degenerate
+//! ones follow, in no node, as no ray can hit them.
+
+use glam::{Vec3, Vec3A};
+
+use super::layout::{
+    INDEX_MASK, MAX_SELECTORS, aux_order, aux_selectors, high_word, indices, set_high_word,
+    unpack_node_word,
+};
+use crate::bvh::Node;
+use crate::bvh::build::Prim;
+use crate::geom::Aabb;
+use crate::mesh::Mesh;
+
+/// Vertices and packed triangles (see the module docs).
+#[derive(Clone, Debug)]
+pub(crate) struct PackedMesh {
+    vertices: Vec<Vec3>,
+    triangles: Vec<[u32; 3]>,
+    tree_len: u32,
+}
+
+impl PackedMesh {
+    /// Wraps arrays whose first `tree_len` triangles carry node words.
+    pub(crate) fn new(vertices: Vec<Vec3>, triangles: Vec<[u32; 3]>, tree_len: usize) -> Self {
+        Self {
+            vertices,
+            triangles,
+            tree_len: tree_len as u32,
+        }
+    }
+
+    /// Reorders `mesh`'s triangles to the built order (`prims`, then the degenerate triangles
+    /// in id order) and stores `high` (one word per tree position) in their index bits.
+    /// Returns the packed mesh and the permutation (position -> original id).
+    pub(crate) fn pack(mesh: Mesh, prims: &[Prim], high: &[u32]) -> (Self, Vec<u32>) {
+        debug_assert_eq!(prims.len(), high.len());
+        let degenerate = (0..mesh.triangle_count() as u32).filter(|&id| mesh.is_degenerate(id));
+        let permutation: Vec<u32> = prims.iter().map(|p| p.id).chain(degenerate).collect();
+        let (vertices, original) = mesh.into_parts();
+        let mut triangles: Vec<[u32; 3]> = permutation
+            .iter()
+            .map(|&id| original[id as usize])
+            .collect();
+        for (t, &word) in triangles.iter_mut().zip(high) {
+            set_high_word(t, word);
+        }
+        (Self::new(vertices, triangles, prims.len()), permutation)
+    }
+
+    /// Positions that belong to the tree (node indices are below it).
+    pub(crate) fn tree_len(&self) -> u32 {
+        self.tree_len
+    }
+
+    /// All triangles, degenerate ones included.
+    pub(crate) fn triangle_count(&self) -> usize {
+        self.triangles.len()
+    }
+
+    /// The vertex array (never changed by the tree).
+    pub(crate) fn vertices(&self) -> &[Vec3] {
+        &self.vertices
+    }
+
+    /// The contents of the node at position `p`, with child indices shifted by `base` (the
+    /// hybrid tree's node numbering; 0 for a plain zero-byte tree).
+    #[inline(always)]
+    pub(crate) fn node(&self, p: u32, base: u32) -> Node {
+        let (count, offset) = unpack_node_word(high_word(&self.triangles[p as usize]));
+        if offset == 0 {
+            return Node::leaf(p, count);
+        }
+        // An internal node has a first child right after its triangles, so `p + 1` exists.
+        let order = aux_order(high_word(&self.triangles[p as usize + 1]));
+        Node {
+            first: p,
+            count,
+            children: [base + p + count, base + p + offset],
+            order,
+        }
+    }
+
+    /// The box of the node at position `p`, recomputed from its triangles: one selected
+    /// corner per triangle where the node has selectors, every corner otherwise.
+    #[inline(always)]
+    pub(crate) fn bounds(&self, p: u32) -> Aabb {
+        let p = p as usize;
+        let (count, _) = unpack_node_word(high_word(&self.triangles[p]));
+        let owned = &self.triangles[p..p + count as usize];
+        let corner = |index: u32| Vec3A::from(self.vertices[(index & INDEX_MASK) as usize]);
+        let (mut min, mut max) = (Vec3A::INFINITY, Vec3A::NEG_INFINITY);
+        let selectors = (count >= 2).then(|| aux_selectors(high_word(&owned[1])));
+        if let Some(Some(selectors)) = selectors {
+            for (k, t) in owned.iter().take(MAX_SELECTORS).enumerate() {
+                let c = corner(t[((selectors >> (2 * k)) & 3) as usize]);
+                (min, max) = (min.min(c), max.max(c));
+            }
+        } else {
+            for t in owned {
+                for &index in t {
+                    let c = corner(index);
+                    (min, max) = (min.min(c), max.max(c));
+                }
+            }
+        }
+        Aabb::new(min.into(), max.into())
+    }
+
+    /// Triangle at position `slot`: its id (the position) and corners.
+    #[inline(always)]
+    pub(crate) fn triangle(&self, slot: u32) -> (u32, [Vec3; 3]) {
+        let t = &self.triangles[slot as usize];
+        let corner = |k: usize| self.vertices[(t[k] & INDEX_MASK) as usize];
+        (slot, [corner(0), corner(1), corner(2)])
+    }
+
+    /// The plain index array (node data removed), in the tree's triangle order.
+    pub(crate) fn plain_triangles(&self) -> Vec<[u32; 3]> {
+        self.triangles.iter().map(indices).collect()
+    }
+
+    /// The plain mesh in the tree's triangle order, the arrays reused (no copy).
+    pub(crate) fn into_mesh(self) -> Mesh {
+        let mut triangles = self.triangles;
+        for t in &mut triangles {
+            *t = indices(t);
+        }
+        Mesh::from_valid_parts(self.vertices, triangles)
+    }
+
+    /// A copy of the plain mesh in the tree's triangle order.
+    pub(crate) fn to_mesh(&self) -> Mesh {
+        Mesh::from_valid_parts(self.vertices.clone(), self.plain_triangles())
+    }
+}

@@ -1,0 +1,186 @@
+//! [`ZeroByteTree`]: a mesh whose triangle order and index bits are the tree.
+
+use glam::Vec3;
+
+use super::build::RangeBuilder;
+use super::cache::BoxCache;
+use super::layout::MAX_TRIANGLES;
+use super::packed::PackedMesh;
+use super::{Rejected, ZbtError, ZbtOptions, check_common};
+use crate::accel::Footprint;
+use crate::bvh::build::prims_of;
+use crate::bvh::{Bvh, Node};
+use crate::geom::Aabb;
+use crate::mesh::Mesh;
+use crate::workspace::StructureId;
+
+/// A zero-byte AABB tree (see [the module docs](super)): the mesh, reordered, and nothing else.
+#[derive(Debug)]
+pub struct ZeroByteTree {
+    packed: PackedMesh,
+    depth: usize,
+    node_count: usize,
+    id: StructureId,
+    options: ZbtOptions,
+}
+
+impl ZeroByteTree {
+    /// Builds the tree by reordering `mesh`'s triangles; returns it with the permutation
+    /// (`permutation[new id] = original id`). On error the mesh is handed back unchanged.
+    ///
+    /// ```
+    /// use raybatch::zbt::{ZbtOptions, ZeroByteTree};
+    /// use raybatch::{Mesh, Ray, RayQueries, glam::Vec3};
+    ///
+    /// let mesh = Mesh::new(
+    ///     vec![Vec3::new(0.0, 0.0, 1.0), Vec3::new(1.0, 0.0, 1.0), Vec3::new(0.0, 1.0, 1.0)],
+    ///     vec![[0, 1, 2]],
+    /// )?;
+    /// let materials = vec!["stone"];
+    /// let (tree, permutation) = ZeroByteTree::build(mesh, &ZbtOptions::default())?;
+    /// // Reorder per-triangle data once, so that hit ids index it directly.
+    /// let materials: Vec<&str> = permutation.iter().map(|&id| materials[id as usize]).collect();
+    /// let hit = tree.cast_ray(&Ray::new(Vec3::new(0.2, 0.2, 0.0), Vec3::Z)).unwrap();
+    /// assert_eq!(materials[hit.triangle as usize], "stone");
+    /// # Ok::<(), Box<dyn std::error::Error>>(())
+    /// ```
+    pub fn build(mesh: Mesh, options: &ZbtOptions) -> Result<(Self, Vec<u32>), Rejected> {
+        if let Err(error) = check(&mesh, options) {
+            return Err(Rejected { error, mesh });
+        }
+        let mut prims = prims_of(&mesh);
+        let mut high = vec![0u32; prims.len()];
+        let depth = if prims.is_empty() {
+            0
+        } else {
+            let builder = RangeBuilder {
+                mesh: &mesh,
+                leaf_size: options.leaf_size,
+                vertices: options.box_vertices,
+                ordering: options.ordering,
+                parallel: crate::parallel::enabled(options.parallel),
+            };
+            builder.build(&mut prims, &mut high, 0)
+        };
+        let (packed, permutation) = PackedMesh::pack(mesh, &prims, &high);
+        let tree = Self {
+            node_count: if packed.tree_len() == 0 {
+                0
+            } else {
+                count_nodes(&packed, 0)
+            },
+            packed,
+            depth,
+            id: StructureId::new(),
+            options: *options,
+        };
+        Ok((tree, permutation))
+    }
+
+    /// The options the tree was built with.
+    pub fn options(&self) -> &ZbtOptions {
+        &self.options
+    }
+
+    /// The vertex array (unchanged by the build).
+    pub fn vertices(&self) -> &[Vec3] {
+        self.packed.vertices()
+    }
+
+    /// The plain index array in the tree's triangle order (a copy, node data removed): the
+    /// mesh stays usable as an ordinary mesh.
+    pub fn plain_triangles(&self) -> Vec<[u32; 3]> {
+        self.packed.plain_triangles()
+    }
+
+    /// A copy of the mesh in the tree's triangle order; triangle ids of hits refer to it.
+    pub fn to_mesh(&self) -> Mesh {
+        self.packed.to_mesh()
+    }
+
+    /// The mesh in the tree's triangle order, its arrays reused (the tree is gone).
+    pub fn into_mesh(self) -> Mesh {
+        self.packed.into_mesh()
+    }
+}
+
+/// The limits of a zero-byte tree (see [`super::layout`]).
+fn check(mesh: &Mesh, options: &ZbtOptions) -> Result<(), ZbtError> {
+    check_common(mesh, options.leaf_size)?;
+    if mesh.triangle_count() > MAX_TRIANGLES {
+        return Err(ZbtError::TooManyTriangles {
+            count: mesh.triangle_count(),
+            max: MAX_TRIANGLES,
+        });
+    }
+    Ok(())
+}
+
+/// Nodes of the zero-byte (sub)tree rooted at position `root`, found by walking it.
+pub(crate) fn count_nodes(packed: &PackedMesh, root: u32) -> usize {
+    let mut stack = vec![root];
+    let mut count = 0;
+    while let Some(p) = stack.pop() {
+        count += 1;
+        let node = packed.node(p, 0);
+        if node.has_children() {
+            stack.extend(node.children);
+        }
+    }
+    count
+}
+
+impl Bvh for ZeroByteTree {
+    type Cache = BoxCache;
+
+    fn len(&self) -> usize {
+        self.packed.tree_len() as usize
+    }
+
+    #[inline(always)]
+    fn bounds(&self, index: u32, cache: &mut BoxCache) -> Aabb {
+        if self.options.box_cache {
+            cache.get(self.id, index, || self.packed.bounds(index))
+        } else {
+            self.packed.bounds(index)
+        }
+    }
+
+    #[inline(always)]
+    fn node(&self, index: u32) -> Node {
+        self.packed.node(index, 0)
+    }
+
+    #[inline(always)]
+    fn triangle(&self, slot: u32) -> (u32, [Vec3; 3]) {
+        self.packed.triangle(slot)
+    }
+
+    fn depth(&self) -> usize {
+        self.depth
+    }
+}
+
+impl Footprint for ZeroByteTree {
+    fn name(&self) -> &'static str {
+        if self.options.box_cache {
+            "zbt"
+        } else {
+            "zbt-nocache"
+        }
+    }
+
+    fn triangle_count(&self) -> usize {
+        self.packed.triangle_count()
+    }
+
+    fn node_count(&self) -> usize {
+        self.node_count
+    }
+
+    /// Nothing beside the mesh (the per-thread box cache is reported on its own:
+    /// [`super::cache::BYTES`]).
+    fn heap_bytes(&self) -> usize {
+        0
+    }
+}
