@@ -17,6 +17,9 @@ pub const ENTRIES: usize = 4096;
 /// Bytes of one thread's cache once allocated.
 pub const BYTES: usize = ENTRIES * size_of::<Entry>();
 
+// The budget: at most 256 KiB per thread.
+const _: () = assert!(BYTES <= 256 * 1024);
+
 /// A cached box and whose it is (`tree == 0`: empty, as ids are never 0).
 #[derive(Clone, Copy, Debug)]
 struct Entry {
@@ -94,7 +97,6 @@ mod tests {
         assert_eq!(cache.get(b, 5, || unit(2.0)), unit(2.0));
         assert_eq!(cache.get(a, 6, || unit(3.0)), unit(3.0));
         assert_eq!(cache.heap_bytes(), BYTES);
-        assert!(BYTES <= 256 * 1024);
     }
 
     #[test]
