@@ -21,6 +21,7 @@
 use crate::batch::lanes::Lanes;
 use crate::batch::options::BatchOptions;
 use crate::batch::partition::Partitioner;
+use crate::geom::sign_filter::RayQuad;
 use crate::geom::{Aabb, PreparedRay, TriangleTest};
 use crate::hit::Visitor;
 
@@ -152,6 +153,13 @@ impl<'a> RayStream<'a> {
     #[inline(always)]
     pub fn ray(&self, i: usize) -> PreparedRay {
         self.lanes.ray(self.lane(i))
+    }
+
+    /// The sign-filter constants of rays `i..i + 4`; panics unless `i + 4 <= len()`.
+    #[inline(always)]
+    pub(crate) fn quad(&self, i: usize) -> RayQuad {
+        assert!(i + 4 <= self.len(), "rays {i}..{} of {}", i + 4, self.len());
+        self.lanes.quad(self.start + i)
     }
 
     /// The position of ray `i` in the caller's batch (what visitors receive).

@@ -9,9 +9,10 @@
 //! megabytes (which cost a cache miss per ray and leaf). The kernels get a `PreparedRay`
 //! rebuilt from the same bits, so they stay the very functions the single-ray path runs.
 
-use glam::Vec3;
+use glam::{BVec4A, Vec3, Vec4};
 
 use crate::geom::PreparedRay;
+use crate::geom::sign_filter::RayQuad;
 
 /// Column indices.
 pub(crate) const OX: usize = 0;
@@ -87,6 +88,23 @@ impl Lanes {
         ];
         for (col, v) in self.cols.iter_mut().zip(values) {
             col[lane] = v;
+        }
+    }
+
+    /// The sign-filter constants of lanes `lane..lane + 4` (all below [`Lanes::len`]).
+    #[inline(always)]
+    pub fn quad(&self, lane: usize) -> RayQuad {
+        let f = |c: usize| {
+            let bits: &[u32; 4] = self.cols[c][lane..lane + 4].try_into().unwrap();
+            Vec4::from_array(bits.map(f32::from_bits))
+        };
+        let axes: &[u32; 4] = self.cols[AXES][lane..lane + 4].try_into().unwrap();
+        RayQuad {
+            origin: [f(OX), f(OY), f(OZ)],
+            shear_x: f(SX),
+            shear_y: f(SY),
+            kz_is_x: BVec4A::from(axes.map(|a| a & 0xFF == 0)),
+            kz_is_y: BVec4A::from(axes.map(|a| a & 0xFF == 1)),
         }
     }
 

@@ -2,6 +2,7 @@
 
 pub mod aabb;
 pub mod ray;
+pub(crate) mod sign_filter;
 pub mod triangle;
 
 pub use aabb::Aabb;

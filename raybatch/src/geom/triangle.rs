@@ -43,6 +43,10 @@ pub trait TriangleTest: Copy + Send + Sync + 'static {
     /// change) must use `K::AnyAxis` for it. Both give identical answers.
     type AnyAxis: TriangleTest;
 
+    /// True if the kernel is the watertight one, whose misses the batched engine may prove
+    /// four rays at a time with [`super::sign_filter`] before calling it.
+    const SIGN_FILTER: bool = false;
+
     /// The hit of `ray` with the triangle `tri` for `t` in `[ray.tmin, tmax]`, if any.
     fn intersect(ray: &PreparedRay, tri: &[Vec3; 3], tmax: f32) -> Option<TriangleHit>;
 }
@@ -102,6 +106,7 @@ pub struct MollerTrumbore;
 
 impl TriangleTest for Watertight {
     type AnyAxis = Watertight;
+    const SIGN_FILTER: bool = true;
 
     /// Dispatches on the ray's dominant axis; traversal loops call [`WatertightAxis`] directly
     /// so that the axis permutation is resolved at compile time.
@@ -121,6 +126,7 @@ pub struct WatertightAxis<const KZ: usize>;
 
 impl<const KZ: usize> TriangleTest for WatertightAxis<KZ> {
     type AnyAxis = Watertight;
+    const SIGN_FILTER: bool = true;
 
     #[inline(always)]
     fn intersect(ray: &PreparedRay, tri: &[Vec3; 3], tmax: f32) -> Option<TriangleHit> {

@@ -95,6 +95,43 @@ impl LeafBatch {
         })
     }
 
+    /// Tests rays `0..active` of `stream` against the batch, four at a time through the
+    /// watertight sign filter ([`crate::geom::sign_filter`]), so that the scalar kernel only
+    /// runs on the pairs the filter cannot prove to miss; each ray still sees its triangles in
+    /// batch order, so the visitor gets exactly the hits, in the order, of [`LeafBatch::test`].
+    /// Returns how many rays it handled (a multiple of 4); the rest are the caller's.
+    #[inline(always)]
+    pub(crate) fn test_quads<K: TriangleTest, V: Visitor>(
+        &self,
+        stream: &mut RayStream<'_>,
+        active: usize,
+        visitor: &mut V,
+    ) -> usize {
+        let handled = active / 4 * 4;
+        let triangles = &self.triangles[..self.len];
+        let mut masks = [0u32; LEAF_BATCH];
+        for i in (0..handled).step_by(4) {
+            let quad = stream.quad(i);
+            let mut any = 0;
+            for (mask, (_, corners)) in masks.iter_mut().zip(triangles) {
+                *mask = quad.may_hit(corners);
+                any |= *mask;
+            }
+            for lane in (0..4).filter(|lane| any & (1 << lane) != 0) {
+                let ray = stream.ray(i + lane);
+                let mut tmax = ray.tmax;
+                let kept = triangles
+                    .iter()
+                    .zip(&masks)
+                    .filter(|(_, mask)| *mask & (1 << lane) != 0)
+                    .map(|(triangle, _)| *triangle);
+                test_triangles::<K, V>(&ray, stream.id(i + lane), kept, &mut tmax, visitor);
+                stream.set_tmax(i + lane, tmax);
+            }
+        }
+        handled
+    }
+
     /// Tests ray `ray` (number `id`, current range end `tmax`) against the batch.
     #[inline(always)]
     pub(crate) fn test<K: TriangleTest, V: Visitor>(
@@ -123,7 +160,12 @@ fn test_leaf<K, V>(
     V: Visitor,
 {
     for batch in LeafBatch::fetch(slots, triangle) {
-        for i in 0..active {
+        let filtered = if K::SIGN_FILTER {
+            batch.test_quads::<K, V>(stream, active, visitor)
+        } else {
+            0
+        };
+        for i in filtered..active {
             let ray = stream.ray(i);
             let mut tmax = ray.tmax;
             batch.test::<K, V>(&ray, stream.id(i), &mut tmax, visitor);

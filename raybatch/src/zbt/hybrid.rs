@@ -16,7 +16,7 @@ use glam::Vec3;
 use super::build::RangeBuilder;
 use super::cache::BoxCache;
 use super::packed::PackedMesh;
-use super::tree::count_nodes;
+use super::tree::ZbtStats;
 use super::{MAX_TRIANGLES, Rejected, ZbtError, ZbtOptions, check_common};
 use crate::accel::Footprint;
 use crate::bvh::build::{Extent, Prim, prims_of, split_in_two};
@@ -106,9 +106,7 @@ impl HybridTree {
             }
         }
         let (packed, permutation) = PackedMesh::pack(mesh, &prims, &high);
-        let chunk_nodes = top_chunk_roots(&top, base, packed.tree_len())
-            .map(|p| count_nodes(&packed, p))
-            .sum::<usize>();
+        let chunk_nodes = ZbtStats::of(&packed, chunk_roots(&top, base, packed.tree_len())).nodes;
         let tree = Self {
             node_count: top.len() + chunk_nodes,
             top,
@@ -149,6 +147,15 @@ impl HybridTree {
     pub fn top_node_count(&self) -> usize {
         self.top.len()
     }
+
+    /// The shape of the zero-byte chunks (all of them together).
+    pub fn stats(&self) -> ZbtStats {
+        let base = self.top.len() as u32;
+        ZbtStats::of(
+            &self.packed,
+            chunk_roots(&self.top, base, self.packed.tree_len()),
+        )
+    }
 }
 
 /// The limits of a hybrid tree.
@@ -162,7 +169,7 @@ fn check(mesh: &Mesh, options: &HybridOptions) -> Result<(), ZbtError> {
 
 /// Positions of the zero-byte roots the top nodes point to (or the one root of a tree with no
 /// top node).
-fn top_chunk_roots(top: &[TopNode], base: u32, tree_len: u32) -> impl Iterator<Item = u32> {
+fn chunk_roots(top: &[TopNode], base: u32, tree_len: u32) -> impl Iterator<Item = u32> {
     let single = (top.is_empty() && tree_len > 0).then_some(0);
     top.iter()
         .flat_map(|n| n.children)

@@ -34,7 +34,7 @@ mod tree;
 pub use cache::BoxCache;
 pub use hybrid::{HybridOptions, HybridTree};
 pub use layout::{MAX_TRIANGLES, MAX_VERTICES};
-pub use tree::ZeroByteTree;
+pub use tree::{ZbtStats, ZeroByteTree};
 
 use crate::bvh::ChildOrdering;
 use crate::mesh::Mesh;

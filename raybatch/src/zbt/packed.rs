@@ -110,6 +110,24 @@ impl PackedMesh {
         Aabb::new(min.into(), max.into())
     }
 
+    /// Whether the node at position `p` recomputes its box from selected corners.
+    pub(crate) fn has_selectors(&self, p: u32) -> bool {
+        let (count, _) = unpack_node_word(high_word(&self.triangles[p as usize]));
+        count >= 2 && aux_selectors(high_word(&self.triangles[p as usize + 1])).is_some()
+    }
+
+    /// Calls `f` with every node of the zero-byte (sub)tree rooted at position `root`.
+    pub(crate) fn walk(&self, root: u32, mut f: impl FnMut(u32, &Node)) {
+        let mut stack = vec![root];
+        while let Some(p) = stack.pop() {
+            let node = self.node(p, 0);
+            f(p, &node);
+            if node.has_children() {
+                stack.extend(node.children);
+            }
+        }
+    }
+
     /// Triangle at position `slot`: its id (the position) and corners.
     #[inline(always)]
     pub(crate) fn triangle(&self, slot: u32) -> (u32, [Vec3; 3]) {

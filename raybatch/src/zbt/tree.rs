@@ -64,11 +64,7 @@ impl ZeroByteTree {
         };
         let (packed, permutation) = PackedMesh::pack(mesh, &prims, &high);
         let tree = Self {
-            node_count: if packed.tree_len() == 0 {
-                0
-            } else {
-                count_nodes(&packed, 0)
-            },
+            node_count: ZbtStats::of(&packed, packed_roots(&packed)).nodes,
             packed,
             depth,
             id: StructureId::new(),
@@ -80,6 +76,11 @@ impl ZeroByteTree {
     /// The options the tree was built with.
     pub fn options(&self) -> &ZbtOptions {
         &self.options
+    }
+
+    /// The shape of the tree (node counts, triangles per node).
+    pub fn stats(&self) -> ZbtStats {
+        ZbtStats::of(&self.packed, packed_roots(&self.packed))
     }
 
     /// The vertex array (unchanged by the build).
@@ -104,6 +105,46 @@ impl ZeroByteTree {
     }
 }
 
+/// The root of a zero-byte tree, if it has one.
+fn packed_roots(packed: &PackedMesh) -> Option<u32> {
+    (packed.tree_len() > 0).then_some(0)
+}
+
+/// The shape of a zero-byte tree (or of the zero-byte parts of a hybrid tree).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct ZbtStats {
+    /// Nodes.
+    pub nodes: usize,
+    /// Nodes with children.
+    pub internal_nodes: usize,
+    /// Triangles owned by nodes with children (tested at every visit on the way down).
+    pub internal_triangles: usize,
+    /// Internal nodes owning one triangle: they have no ordering byte of their own (the seed's
+    /// "wrong but harmless" case).
+    pub single_triangle_internal_nodes: usize,
+    /// Nodes whose box comes from one selected corner per triangle.
+    pub selected_corner_nodes: usize,
+}
+
+impl ZbtStats {
+    /// The stats of the zero-byte trees rooted at `roots`.
+    pub(crate) fn of(packed: &PackedMesh, roots: impl IntoIterator<Item = u32>) -> Self {
+        let mut stats = Self::default();
+        for root in roots {
+            packed.walk(root, |p, node| {
+                stats.nodes += 1;
+                stats.selected_corner_nodes += packed.has_selectors(p) as usize;
+                if node.has_children() {
+                    stats.internal_nodes += 1;
+                    stats.internal_triangles += node.count as usize;
+                    stats.single_triangle_internal_nodes += (node.count == 1) as usize;
+                }
+            });
+        }
+        stats
+    }
+}
+
 /// The limits of a zero-byte tree (see [`super::layout`]).
 fn check(mesh: &Mesh, options: &ZbtOptions) -> Result<(), ZbtError> {
     check_common(mesh, options.leaf_size)?;
@@ -114,20 +155,6 @@ fn check(mesh: &Mesh, options: &ZbtOptions) -> Result<(), ZbtError> {
         });
     }
     Ok(())
-}
-
-/// Nodes of the zero-byte (sub)tree rooted at position `root`, found by walking it.
-pub(crate) fn count_nodes(packed: &PackedMesh, root: u32) -> usize {
-    let mut stack = vec![root];
-    let mut count = 0;
-    while let Some(p) = stack.pop() {
-        count += 1;
-        let node = packed.node(p, 0);
-        if node.has_children() {
-            stack.extend(node.children);
-        }
-    }
-    count
 }
 
 impl Bvh for ZeroByteTree {

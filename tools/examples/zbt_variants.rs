@@ -1,0 +1,163 @@
+//! The zero-byte tree's choices, measured against each other and against the AABB tree: box
+//! corners (all vs selected), box cache (on vs off), leaf size, and the hybrid tree's chunk
+//! size. One thread, incoherent closest-hit rays, per ray and batched (all rays in one call);
+//! every variant's answers are checked against the AABB tree's (same triangle through the
+//! permutation, same `t`).
+//!
+//! `cargo run --release -p raybatch-tools --example zbt_variants [-- bunny|terrain|city [RAYS]]`
+
+use std::time::Instant;
+
+use raybatch::zbt::{BoxVertices, HybridOptions, ZbtOptions, ZbtStats};
+use raybatch::{
+    AabbTree, Accel, BatchOptions, BatchQueries, BuildOptions, Footprint, Hit, HybridTree, Ray,
+    RayQueries, ZeroByteTree,
+};
+use raybatch_tools::scenes::{self, RaySet};
+
+fn main() {
+    let mut args = std::env::args().skip(1);
+    let scene = match args.next().as_deref() {
+        None | Some("bunny") => scenes::bunny(),
+        Some("terrain") => scenes::terrain(scenes::BUILTIN_TERRAIN_CELLS),
+        Some("city") => scenes::city(scenes::BUILTIN_CITY_BLOCKS),
+        Some(other) => panic!("unknown scene {other}: bunny, terrain or city"),
+    };
+    let count: usize = args
+        .next()
+        .map_or(200_000, |n| n.parse().expect("a ray count"));
+    let rays = scenes::generate(RaySet::Incoherent, &scene.mesh, scene.kind, count, 7);
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(1)
+        .build()
+        .unwrap();
+    println!(
+        "{} ({} triangles), {count} incoherent rays, one thread, Mrays/s (ratio to the AABB tree)\n",
+        scene.name,
+        scene.mesh.triangle_count()
+    );
+    println!(
+        "| variant | build ms | B/tri | nodes | tris/internal node | 1-tri internal | selected | per-ray | batched |"
+    );
+    println!("|---|---|---|---|---|---|---|---|---|");
+    pool.install(|| {
+        let start = Instant::now();
+        let aabb: AabbTree = AabbTree::build(scene.mesh.clone(), &BuildOptions::default()).unwrap();
+        let ms = ms_since(start);
+        let reference = Measured::of(&aabb, &rays, None);
+        row("aabb (reference)", ms, &aabb, None, &reference, &reference);
+        for leaf_size in [4, 8] {
+            for box_vertices in [BoxVertices::All, BoxVertices::Selected] {
+                for box_cache in [true, false] {
+                    let options = ZbtOptions {
+                        leaf_size,
+                        box_vertices,
+                        box_cache,
+                        ..ZbtOptions::default()
+                    };
+                    let start = Instant::now();
+                    let (tree, perm) = ZeroByteTree::build(scene.mesh.clone(), &options).unwrap();
+                    let ms = ms_since(start);
+                    let m = Measured::of(&tree, &rays, Some(&perm));
+                    reference.check_same(&m, "zbt");
+                    let name = format!(
+                        "zbt leaf {leaf_size}, {:?} corners, cache {}",
+                        box_vertices,
+                        if box_cache { "on" } else { "off" }
+                    );
+                    row(&name, ms, &tree, Some(tree.stats()), &m, &reference);
+                }
+            }
+        }
+        for chunk_size in [64, 512, 4096] {
+            let options = HybridOptions {
+                chunk_size,
+                ..HybridOptions::default()
+            };
+            let start = Instant::now();
+            let (tree, perm) = HybridTree::build(scene.mesh.clone(), &options).unwrap();
+            let ms = ms_since(start);
+            let m = Measured::of(&tree, &rays, Some(&perm));
+            reference.check_same(&m, "hybrid");
+            let name = format!("hybrid, chunks of {chunk_size}");
+            row(&name, ms, &tree, Some(tree.stats()), &m, &reference);
+        }
+    });
+}
+
+fn ms_since(start: Instant) -> f64 {
+    start.elapsed().as_secs_f64() * 1e3
+}
+
+/// Speeds and answers (triangle ids mapped to the original mesh).
+struct Measured {
+    per_ray: f64,
+    batched: f64,
+    answers: Vec<Option<(u32, u32)>>,
+}
+
+impl Measured {
+    fn of<A: Accel>(accel: &A, rays: &[Ray], perm: Option<&[u32]>) -> Self {
+        let start = Instant::now();
+        let per_ray_hits: Vec<Option<Hit>> = rays.iter().map(|r| accel.cast_ray(r)).collect();
+        let per_ray = rays.len() as f64 / start.elapsed().as_secs_f64() / 1e6;
+        let mut hits = vec![None; rays.len()];
+        let start = Instant::now();
+        accel
+            .cast_rays_with(rays, &mut hits, &BatchOptions::default())
+            .unwrap();
+        let batched = rays.len() as f64 / start.elapsed().as_secs_f64() / 1e6;
+        assert!(hits == per_ray_hits, "batched answers differ from per-ray");
+        let original = |id: u32| perm.map_or(id, |p| p[id as usize]);
+        let answers = hits
+            .iter()
+            .map(|h| h.map(|h| (original(h.triangle), h.t.to_bits())))
+            .collect();
+        Self {
+            per_ray,
+            batched,
+            answers,
+        }
+    }
+
+    /// Same triangle at the same `t` for every ray, except where several triangles tie.
+    fn check_same(&self, other: &Measured, name: &str) {
+        let differ = self
+            .answers
+            .iter()
+            .zip(&other.answers)
+            .filter(|(a, b)| a.map(|a| a.1) != b.map(|b| b.1))
+            .count();
+        assert_eq!(
+            differ, 0,
+            "{name}: hit distances differ from the AABB tree's"
+        );
+    }
+}
+
+fn row(
+    name: &str,
+    build_ms: f64,
+    accel: &dyn Footprint,
+    stats: Option<ZbtStats>,
+    m: &Measured,
+    reference: &Measured,
+) {
+    let shape = stats.map_or("| - | - | - ".to_string(), |s| {
+        format!(
+            "| {:.2} | {:.1}% | {:.0}% ",
+            s.internal_triangles as f64 / s.internal_nodes.max(1) as f64,
+            100.0 * s.single_triangle_internal_nodes as f64 / s.internal_nodes.max(1) as f64,
+            100.0 * s.selected_corner_nodes as f64 / s.nodes.max(1) as f64
+        )
+    });
+    println!(
+        "| {name} | {build_ms:.1} | {:.2} | {} {shape}| {:.3} ({:.2}) | {:.3} ({:.2}) |",
+        accel.bytes_per_triangle(),
+        accel.node_count(),
+        m.per_ray,
+        m.per_ray / reference.per_ray,
+        m.batched,
+        m.batched / reference.batched,
+    );
+}
