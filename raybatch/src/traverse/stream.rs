@@ -100,7 +100,7 @@ impl LeafBatch {
     /// runs on the pairs the filter cannot prove to miss; each ray still sees its triangles in
     /// batch order, so the visitor gets exactly the hits, in the order, of [`LeafBatch::test`].
     /// Returns how many rays it handled (a multiple of 4); the rest are the caller's.
-    #[inline(always)]
+    #[inline]
     pub(crate) fn test_quads<K: TriangleTest, V: Visitor>(
         &self,
         stream: &mut RayStream<'_>,
