@@ -98,6 +98,12 @@ struct Measured {
 
 impl Measured {
     fn of<A: Accel>(accel: &A, rays: &[Ray], perm: Option<&[u32]>) -> Self {
+        // Warm-up: the thread's workspace, the box cache, the mesh in the CPU caches.
+        let warm = &rays[..rays.len() / 20];
+        let warm_hits: Vec<Option<Hit>> = warm.iter().map(|r| accel.cast_ray(r)).collect();
+        std::hint::black_box(warm_hits);
+        let mut hits = vec![None; warm.len()];
+        accel.cast_rays(warm, &mut hits).unwrap();
         let start = Instant::now();
         let per_ray_hits: Vec<Option<Hit>> = rays.iter().map(|r| accel.cast_ray(r)).collect();
         let per_ray = rays.len() as f64 / start.elapsed().as_secs_f64() / 1e6;

@@ -4,7 +4,8 @@
 //! 1. the main table: per-ray speed on one thread of every tree and ordering, one column per
 //!    entry of [`COLUMNS`] (pns on every ray; fixed and split-axis on at most
 //!    [`VARIANT_RAYS`], to keep the full run short);
-//! 2. the triangle kernels on the default tree (one line);
+//! 2. the zero-byte trees against brute force, the only other zero-memory option (one line);
+//!    the triangle kernels on the default tree (one line);
 //! 3. per-ray vs batched on the pns trees ([`compare::batched_section`]);
 //! 4. on the bunny only, the batch size sweep and the partition kernels.
 //!
@@ -15,7 +16,8 @@
 use std::path::Path;
 use std::sync::Arc;
 
-use raybatch::{AccelKind, AnyAccel, BuildOptions, ChildOrdering, Footprint, Mesh};
+use raybatch::query::brute_force;
+use raybatch::{AccelKind, AnyAccel, BuildOptions, ChildOrdering, Footprint, Kernel, Mesh};
 use raybatch_tools::scenes::{self, RaySet, Scene, SceneKind};
 
 use crate::args::BenchArgs;
@@ -196,6 +198,8 @@ impl Row {
 #[derive(Default)]
 struct SceneReport {
     rows: Vec<Row>,
+    /// The zero-byte trees against the only other zero-memory option, brute force.
+    zero_memory: String,
     kernels: String,
     batched: Vec<BatchedRow>,
     /// The batch size sweep and the partition kernels (detailed scenes only).
@@ -207,6 +211,7 @@ impl SceneReport {
         let mut sections = vec![
             heading(scene, plan),
             results_table(&self.rows).render(),
+            self.zero_memory.clone(),
             self.kernels.clone(),
             compare::batched_section(&self.batched, plan.rays),
         ];
@@ -224,6 +229,7 @@ fn bench_scene(scene: &BenchScene, plan: &Plan) -> String {
     for kind in AccelKind::ALL {
         bench_kind(kind, scene, plan, &rays, &mut report);
     }
+    report.zero_memory = zero_memory(scene, &rays.all, &report.rows);
     report.render(scene, plan)
 }
 
@@ -256,6 +262,55 @@ fn bench_kind(
         }
         report.rows.push(row);
     }
+}
+
+/// Rays brute force is timed on: it tests every triangle, so a few thousand say enough.
+const BRUTE_FORCE_RAYS: usize = 2_000;
+
+/// One paragraph: brute force (the O(n) scan, the only other option that needs no memory
+/// beside the mesh) against the zero-byte trees, closest hit on incoherent rays, and what the
+/// zero-byte trees keep beside the mesh.
+fn zero_memory(scene: &BenchScene, rays: &RaySets, rows: &[Row]) -> String {
+    let incoherent = rays.get(RaySet::Incoherent);
+    let sample = &incoherent[..incoherent.len().min(BRUTE_FORCE_RAYS)];
+    progress(&format!("{}: brute force ...", scene.name));
+    let brute = brute_force_speed(&scene.mesh, sample);
+    let zbt = rows
+        .iter()
+        .filter(|r| r.ordering == ChildOrdering::Pns)
+        .filter(|r| matches!(r.tree, AccelKind::Zbt | AccelKind::ZbtNoCache))
+        .map(|r| {
+            let speed = r.speed_of(QueryKind::Closest, RaySet::Incoherent);
+            format!(
+                "{} {speed:.2} Mrays/s ({} brute force)",
+                r.tree.name(),
+                ratio(speed / brute)
+            )
+        })
+        .collect::<Vec<_>>()
+        .join(", ");
+    format!(
+        "Zero memory beside the mesh, closest incoherent: brute force {} rays/s (on {} rays); \
+         {zbt}. The zero-byte trees' bytes/tri is 0: each thread that queries one \
+         keeps a box cache of {} KiB (shared by every zero-byte and hybrid tree it queries), \
+         and the catalog keeps a 4 bytes/tri id map to answer in the mesh's own triangle ids \
+         (`Footprint::id_map_bytes`; a user of `ZeroByteTree` reorders per-triangle data \
+         once instead).",
+        thousands((brute * 1e6) as usize),
+        thousands(sample.len()),
+        raybatch::zbt::cache::BYTES / 1024,
+    )
+}
+
+/// Mrays/s of the brute-force closest hit over `rays` on one thread.
+fn brute_force_speed(mesh: &Mesh, rays: &[raybatch::Ray]) -> f64 {
+    let (hits, ms) = time_ms(|| {
+        rays.iter()
+            .filter(|r| brute_force::cast_ray(mesh, r, Kernel::Watertight).is_some())
+            .count()
+    });
+    std::hint::black_box(hits);
+    rays.len() as f64 / (ms * 1e3)
 }
 
 /// The comparisons run on the default tree only: kernels, and on detailed scenes the batch size
