@@ -69,7 +69,7 @@ fn main() {
                 }
             }
         }
-        for chunk_size in [64, 512, 4096] {
+        for chunk_size in [16, 32, 64, 512, 4096] {
             let options = HybridOptions {
                 chunk_size,
                 ..HybridOptions::default()
