@@ -44,7 +44,7 @@ pub trait TriangleTest: Copy + Send + Sync + 'static {
     type AnyAxis: TriangleTest;
 
     /// True if the kernel is the watertight one, whose misses the batched engine may prove
-    /// four rays at a time with [`super::sign_filter`] before calling it.
+    /// four rays at a time (the crate's `geom::sign_filter`) before calling it.
     const SIGN_FILTER: bool = false;
 
     /// The hit of `ray` with the triangle `tri` for `t` in `[ray.tmin, tmax]`, if any.

@@ -7,7 +7,7 @@
 //! traversal engines run it unchanged; the batched engine recomputes each node's box once per
 //! batch visit.
 //!
-//! - [`layout`](self): where the node data sits in the index bits (the limits follow from it);
+//! - `layout`: where the node data sits in the index bits (the limits follow from it);
 //! - `cover`: which triangles define a node's box;
 //! - `build`: the SAH build around those covers;
 //! - `packed`: reading nodes, boxes and triangles back from the packed mesh;
