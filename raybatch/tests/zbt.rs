@@ -10,9 +10,7 @@ use common::oracles::{all_bits, opt_bits};
 use common::rays::hard_rays;
 use glam::Vec3;
 use raybatch::query::brute_force;
-use raybatch::zbt::{
-    BoxVertices, HybridOptions, MAX_TRIANGLES, MAX_VERTICES, ZbtError, ZbtOptions,
-};
+use raybatch::zbt::{HybridOptions, MAX_TRIANGLES, MAX_VERTICES, ZbtError, ZbtOptions};
 use raybatch::{
     Accel, BatchOptions, BatchQueries, Footprint, HybridTree, Kernel, Mesh, Ray, RayQueries,
     ZeroByteTree,
@@ -35,11 +33,11 @@ fn some_hard_rays(mesh: &Mesh, seed: u64) -> Vec<Ray> {
 fn zbt_options() -> Vec<ZbtOptions> {
     let mut all = Vec::new();
     for leaf_size in [1, 4, 8] {
-        for box_vertices in [BoxVertices::All, BoxVertices::Selected] {
+        for inherit_slack in [0.0, 0.1, 1.0, f32::INFINITY] {
             for box_cache in [true, false] {
                 all.push(ZbtOptions {
                     leaf_size,
-                    box_vertices,
+                    inherit_slack,
                     box_cache,
                     ..ZbtOptions::default()
                 });

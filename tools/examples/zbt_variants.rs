@@ -1,5 +1,5 @@
-//! The zero-byte tree's choices, measured against each other and against the AABB tree: box
-//! corners (all vs selected), box cache (on vs off), leaf size, and the hybrid tree's chunk
+//! The zero-byte tree's choices, measured against each other and against the AABB tree:
+//! inherited faces (the slack), box cache (on vs off), leaf size, and the hybrid tree's chunk
 //! size. One thread, incoherent closest-hit rays, per ray and batched (all rays in one call);
 //! every variant's answers are checked against the AABB tree's (same triangle through the
 //! permutation, same `t`).
@@ -8,7 +8,7 @@
 
 use std::time::Instant;
 
-use raybatch::zbt::{BoxVertices, HybridOptions, ZbtOptions, ZbtStats};
+use raybatch::zbt::{HybridOptions, ZbtOptions, ZbtStats};
 use raybatch::{
     AabbTree, Accel, BatchOptions, BatchQueries, BuildOptions, Footprint, Hit, HybridTree, Ray,
     RayQueries, ZeroByteTree,
@@ -37,9 +37,9 @@ fn main() {
         scene.mesh.triangle_count()
     );
     println!(
-        "| variant | build ms | B/tri | nodes | tris/internal node | 1-tri internal | selected | per-ray | batched |"
+        "| variant | build ms | B/tri | nodes | tris/internal node | inherited faces/node | per-ray | batched |"
     );
-    println!("|---|---|---|---|---|---|---|---|---|");
+    println!("|---|---|---|---|---|---|---|---|");
     pool.install(|| {
         let start = Instant::now();
         let aabb: AabbTree = AabbTree::build(scene.mesh.clone(), &BuildOptions::default()).unwrap();
@@ -47,11 +47,11 @@ fn main() {
         let reference = Measured::of(&aabb, &rays, None);
         row("aabb (reference)", ms, &aabb, None, &reference, &reference);
         for leaf_size in [4, 8] {
-            for box_vertices in [BoxVertices::All, BoxVertices::Selected] {
+            for inherit_slack in [0.0, 0.1, 0.25, 1.0] {
                 for box_cache in [true, false] {
                     let options = ZbtOptions {
                         leaf_size,
-                        box_vertices,
+                        inherit_slack,
                         box_cache,
                         ..ZbtOptions::default()
                     };
@@ -61,8 +61,7 @@ fn main() {
                     let m = Measured::of(&tree, &rays, Some(&perm));
                     reference.check_same(&m, "zbt");
                     let name = format!(
-                        "zbt leaf {leaf_size}, {:?} corners, cache {}",
-                        box_vertices,
+                        "zbt leaf {leaf_size}, slack {inherit_slack}, cache {}",
                         if box_cache { "on" } else { "off" }
                     );
                     row(&name, ms, &tree, Some(tree.stats()), &m, &reference);
@@ -149,12 +148,11 @@ fn row(
     m: &Measured,
     reference: &Measured,
 ) {
-    let shape = stats.map_or("| - | - | - ".to_string(), |s| {
+    let shape = stats.map_or("| - | - ".to_string(), |s| {
         format!(
-            "| {:.2} | {:.1}% | {:.0}% ",
+            "| {:.2} | {:.2} ",
             s.internal_triangles as f64 / s.internal_nodes.max(1) as f64,
-            100.0 * s.single_triangle_internal_nodes as f64 / s.internal_nodes.max(1) as f64,
-            100.0 * s.selected_corner_nodes as f64 / s.nodes.max(1) as f64
+            s.inherited_faces as f64 / s.nodes.max(1) as f64,
         )
     });
     println!(

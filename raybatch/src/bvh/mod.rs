@@ -44,6 +44,9 @@ pub struct Node {
     pub children: [u32; 2],
     /// Child ordering byte: bit `o` set means rays of octant `o` visit the second child first.
     pub order: u8,
+    /// Faces of this node's box each child inherits (the zero-byte tree, see
+    /// [`crate::zbt`]); `[0, 0]` for trees that store their boxes.
+    pub inherited: [u8; 2],
 }
 
 impl Node {
@@ -55,6 +58,7 @@ impl Node {
             count,
             children: [0, 0],
             order: 0,
+            inherited: [0, 0],
         }
     }
 
@@ -67,6 +71,7 @@ impl Node {
             count: 0,
             children: [first_child, first_child + 1],
             order,
+            inherited: [0, 0],
         }
     }
 
@@ -81,13 +86,22 @@ impl Node {
 /// or only degenerate triangles) is hit by nothing.
 ///
 /// Contract the traversals rely on: every node's box contains its triangles' bounding boxes and
-/// its children's boxes (boxes may be larger than tight, never smaller); child indices are
+/// its children's boxes (boxes may be larger than tight, never smaller), and is the same
+/// whenever it is read; child indices are
 /// below [`Bvh::len`] and every path from the root is at most [`Bvh::depth`] nodes long.
 /// Internal nodes have two children; a node with one child pads the pair with a node whose box
 /// is [`Aabb::EMPTY`] (no ray enters it, so its contents are never read).
 pub trait Bvh: Sync {
     /// Per-thread state box reads need (the zero-byte tree's box cache); `()` for stored boxes.
     type Cache: Default + Send + 'static;
+
+    /// What the one-ray loop keeps of a pending node's box (on its stack) to read the node's
+    /// children's boxes later: `()` for trees whose boxes stand alone, so they pay nothing;
+    /// the box itself for the zero-byte trees, whose children inherit faces of it.
+    type NodeBox: Copy + Default + std::fmt::Debug + Send + 'static;
+
+    /// What to keep of a node's box `bounds` (see [`Bvh::NodeBox`]).
+    fn keep(bounds: &Aabb) -> Self::NodeBox;
 
     /// Whether the single-ray loop should run its AVX2-compiled copy where the CPU has AVX2
     /// (measured per node format: it speeds up full nodes and slows down quantized ones).
@@ -102,18 +116,17 @@ pub trait Bvh: Sync {
         self.len() == 0
     }
 
-    /// The box of node `index` (< `len()`).
-    fn bounds(&self, index: u32, cache: &mut Self::Cache) -> Aabb;
+    /// The box of the root (node 0; the tree is not empty).
+    fn root_bounds(&self, cache: &mut Self::Cache) -> Aabb;
 
-    /// The boxes of the two children `children` (a format that stores a pair together may read
-    /// both at once).
-    #[inline(always)]
-    fn child_bounds(&self, children: [u32; 2], cache: &mut Self::Cache) -> [Aabb; 2] {
-        [
-            self.bounds(children[0], cache),
-            self.bounds(children[1], cache),
-        ]
-    }
+    /// The boxes of the two children of `node`, of whose own box `node_box` was kept (a child's
+    /// box may depend on its parent's: the zero-byte tree's children inherit faces of it).
+    fn child_bounds(
+        &self,
+        node: &Node,
+        node_box: &Self::NodeBox,
+        cache: &mut Self::Cache,
+    ) -> [Aabb; 2];
 
     /// The contents of node `index` (< `len()`).
     fn node(&self, index: u32) -> Node;
@@ -128,11 +141,11 @@ pub trait Bvh: Sync {
 /// Per-thread scratch of the BVH traversals: the stacks of both engines and the tree's cache.
 /// Sized on first use and reused, so no query allocates or clears a stack.
 #[derive(Debug, Default)]
-pub struct BvhScratch<C> {
-    /// Single-ray stack: pending node and its entry distance.
-    pub(crate) stack: Vec<(u32, f32)>,
-    /// Batched stack: pending node and how many rays of the stream reach it.
-    pub(crate) stream_stack: Vec<(u32, u32)>,
+pub struct BvhScratch<C, N = ()> {
+    /// Single-ray stack: pending node, its entry distance and what is kept of its box.
+    pub(crate) stack: Vec<(u32, f32, N)>,
+    /// Batched stack: pending node, how many rays of the stream reach its parent, its box.
+    pub(crate) stream_stack: Vec<(u32, u32, Aabb)>,
     /// The tree's box cache.
     pub(crate) cache: C,
 }

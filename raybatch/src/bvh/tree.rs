@@ -62,15 +62,23 @@ impl<N: NodeFormat> AabbTree<N> {
 
 impl<N: NodeFormat> Bvh for AabbTree<N> {
     type Cache = ();
+    type NodeBox = ();
     const AVX2_TRAVERSAL: bool = N::AVX2_TRAVERSAL;
 
     fn len(&self) -> usize {
         self.nodes.node_count()
     }
 
+    fn root_bounds(&self, _: &mut ()) -> Aabb {
+        self.nodes.bounds(0)
+    }
+
     #[inline(always)]
-    fn bounds(&self, index: u32, _: &mut ()) -> Aabb {
-        self.nodes.bounds(index)
+    fn keep(_: &Aabb) {}
+
+    #[inline(always)]
+    fn child_bounds(&self, node: &Node, _: &(), _: &mut ()) -> [Aabb; 2] {
+        node.children.map(|c| self.nodes.bounds(c))
     }
 
     #[inline(always)]

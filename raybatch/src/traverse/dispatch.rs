@@ -13,7 +13,7 @@ struct OneRay<'a, B: Bvh, K, V> {
     tree: &'a B,
     ray: &'a PreparedRay,
     id: u32,
-    scratch: &'a mut BvhScratch<B::Cache>,
+    scratch: &'a mut BvhScratch<B::Cache, B::NodeBox>,
     visitor: &'a mut V,
     kernel: std::marker::PhantomData<K>,
 }
@@ -32,7 +32,7 @@ pub(crate) fn trace<B: Bvh, K: TriangleTest, V: Visitor>(
     tree: &B,
     ray: &PreparedRay,
     id: u32,
-    scratch: &mut BvhScratch<B::Cache>,
+    scratch: &mut BvhScratch<B::Cache, B::NodeBox>,
     visitor: &mut V,
 ) -> f32 {
     trace_in::<B, K, V>(B::AVX2_TRAVERSAL, tree, ray, id, scratch, visitor)
@@ -45,7 +45,7 @@ pub(crate) fn trace_in<B: Bvh, K: TriangleTest, V: Visitor>(
     tree: &B,
     ray: &PreparedRay,
     id: u32,
-    scratch: &mut BvhScratch<B::Cache>,
+    scratch: &mut BvhScratch<B::Cache, B::NodeBox>,
     visitor: &mut V,
 ) -> f32 {
     let one = OneRay::<B, K, V> {

@@ -19,7 +19,7 @@ use crate::geom::{PreparedRay, TriangleTest};
 use crate::hit::Visitor;
 
 impl<B: Bvh> Accel for B {
-    type Scratch = BvhScratch<B::Cache>;
+    type Scratch = BvhScratch<B::Cache, B::NodeBox>;
 
     #[inline]
     fn trace<K: TriangleTest, V: Visitor>(

@@ -3,9 +3,10 @@
 //! Depth first, with an explicit stack from the thread's scratch (sized from [`Bvh::depth`] on
 //! first use, never cleared or zeroed per ray). At an internal node both children's boxes are
 //! read once ([`Bvh::child_bounds`]) and tested; if both are touched, the one the precomputed
-//! ordering byte names as nearer is visited now and the other is pushed with its entry distance,
-//! so that a later pop can drop it without reading it again when the best hit has moved in front
-//! of it, and a pop that keeps it reads only its contents, not its box. Entry distances are
+//! ordering byte names as nearer is visited now and the other is pushed with its entry distance
+//! and its box, so that a later pop can drop it without reading it again when the best hit has
+//! moved in front of it, and a pop that keeps it reads only its contents (its box is on the
+//! stack: its children's boxes may depend on it). Entry distances are
 //! compared with `<=`: a box entered exactly at the best `t` may still hold an equal-`t`
 //! triangle with a lower id (the tie rule of [`crate::hit`]).
 
@@ -22,7 +23,7 @@ pub(crate) fn trace<B, K, V>(
     tree: &B,
     ray: &PreparedRay,
     id: u32,
-    scratch: &mut BvhScratch<B::Cache>,
+    scratch: &mut BvhScratch<B::Cache, B::NodeBox>,
     visitor: &mut V,
 ) -> f32
 where
@@ -31,24 +32,29 @@ where
     V: Visitor,
 {
     let mut tmax = ray.tmax;
-    if tree.is_empty() || !tree.bounds(0, &mut scratch.cache).hit_by(ray, tmax) {
+    if tree.is_empty() {
         return tmax;
     }
-    trace_below::<B, K, V>(tree, ray, id, 0, &mut tmax, scratch, visitor);
+    let root_box = tree.root_bounds(&mut scratch.cache);
+    if !root_box.hit_by(ray, tmax) {
+        return tmax;
+    }
+    let start = (0, B::keep(&root_box));
+    trace_below::<B, K, V>(tree, ray, id, start, &mut tmax, scratch, visitor);
     tmax
 }
 
-/// The traversal loop, starting at node `start`, whose box the ray is known to touch, with the
-/// ray's current range end `tmax`. The batched engine calls it to finish a subtree for the few
-/// rays that reach it.
+/// The traversal loop, starting at node `start` with its box, which the ray is known to touch,
+/// with the ray's current range end `tmax`. The batched engine calls it to finish a subtree for
+/// the few rays that reach it.
 #[inline(always)]
 pub(crate) fn trace_below<B, K, V>(
     tree: &B,
     ray: &PreparedRay,
     id: u32,
-    start: u32,
+    start: (u32, B::NodeBox),
     tmax: &mut f32,
-    scratch: &mut BvhScratch<B::Cache>,
+    scratch: &mut BvhScratch<B::Cache, B::NodeBox>,
     visitor: &mut V,
 ) where
     B: Bvh + ?Sized,
@@ -58,7 +64,7 @@ pub(crate) fn trace_below<B, K, V>(
     let BvhScratch { stack, cache, .. } = scratch;
     stack.clear();
     stack.reserve(tree.depth() + 1);
-    let mut index = start;
+    let (mut index, mut node_box) = start;
     loop {
         let node = tree.node(index);
         if test_node_triangles::<B, K, V>(tree, &node, ray, id, tmax, visitor) {
@@ -66,7 +72,7 @@ pub(crate) fn trace_below<B, K, V>(
         }
         if node.has_children() {
             let [a, b] = node.children;
-            let [first, second] = tree.child_bounds(node.children, cache);
+            let [first, second] = tree.child_bounds(&node, &node_box, cache);
             let ((near, near_box), (far, far_box)) =
                 if second_child_first(node.order, ray.octant_mask) {
                     ((b, second), (a, first))
@@ -77,16 +83,16 @@ pub(crate) fn trace_below<B, K, V>(
             let far_entry = far_box.entry(ray, *tmax);
             match (near_entry < f32::INFINITY, far_entry < f32::INFINITY) {
                 (true, true) => {
-                    stack.push((far, far_entry));
-                    index = near;
+                    stack.push((far, far_entry, B::keep(&far_box)));
+                    (index, node_box) = (near, B::keep(&near_box));
                     continue;
                 }
                 (true, false) => {
-                    index = near;
+                    (index, node_box) = (near, B::keep(&near_box));
                     continue;
                 }
                 (false, true) => {
-                    index = far;
+                    (index, node_box) = (far, B::keep(&far_box));
                     continue;
                 }
                 (false, false) => {}
@@ -94,11 +100,11 @@ pub(crate) fn trace_below<B, K, V>(
         }
         // Pop the next pending node that is still in front of the best hit.
         loop {
-            let Some((pending, entry)) = stack.pop() else {
+            let Some((pending, entry, pending_box)) = stack.pop() else {
                 return;
             };
             if entry <= *tmax {
-                index = pending;
+                (index, node_box) = (pending, pending_box);
                 break;
             }
         }

@@ -1,8 +1,8 @@
 //! A stream of rays down the tree, once (seed 001).
 //!
-//! An explicit stack holds `(node, count)`: rays `0..count` of the stream are the ones that
-//! reached the node's parent. At each node the box is read (or dequantized, or recomputed) once,
-//! tested against all of them, and the ones that touch it are moved to the front
+//! An explicit stack holds `(node, count, box)`: rays `0..count` of the stream are the ones that
+//! reached the node's parent, and the box was read (or dequantized, or recomputed) once, at the
+//! parent, with its sibling's. At each node the box is tested against all of them, and the ones that touch it are moved to the front
 //! ([`RayStream::partition`]); only that prefix goes on to the node's triangles and children.
 //! Each triangle is loaded once and tested against every surviving ray. A child's partition only
 //! reorders the prefix it was given, so when the second child is popped the prefix still holds
@@ -25,7 +25,7 @@ use crate::hit::Visitor;
 pub(crate) fn trace_stream<B, K, V>(
     tree: &B,
     stream: &mut RayStream<'_>,
-    scratch: &mut BvhScratch<B::Cache>,
+    scratch: &mut BvhScratch<B::Cache, B::NodeBox>,
     visitor: &mut V,
 ) where
     B: Bvh,
@@ -38,15 +38,15 @@ pub(crate) fn trace_stream<B, K, V>(
     let single_ray_below = stream.options().single_ray_below;
     let mut pending = std::mem::take(&mut scratch.stream_stack);
     pending.clear();
-    pending.push((0, stream.len() as u32));
-    while let Some((index, count)) = pending.pop() {
-        let bounds = tree.bounds(index, &mut scratch.cache);
+    pending.push((0, stream.len() as u32, tree.root_bounds(&mut scratch.cache)));
+    while let Some((index, count, bounds)) = pending.pop() {
         let active = stream.partition(count as usize, &bounds);
         if active == 0 {
             continue;
         }
         if active < single_ray_below {
-            finish_one_by_one::<B, K, V>(tree, stream, active, index, scratch, visitor);
+            let start = (index, B::keep(&bounds));
+            finish_one_by_one::<B, K, V>(tree, stream, active, start, scratch, visitor);
             continue;
         }
         let node = tree.node(index);
@@ -54,13 +54,15 @@ pub(crate) fn trace_stream<B, K, V>(
         test_leaf::<K, V>(stream, active, slots, |slot| tree.triangle(slot), visitor);
         if node.has_children() {
             let [a, b] = node.children;
+            let kept = B::keep(&bounds);
+            let [ab, bb] = tree.child_bounds(&node, &kept, &mut scratch.cache);
             let (near, far) = if second_child_first(node.order, stream.octant_mask()) {
-                (b, a)
+                ((b, bb), (a, ab))
             } else {
-                (a, b)
+                ((a, ab), (b, bb))
             };
-            pending.push((far, active as u32));
-            pending.push((near, active as u32));
+            pending.push((far.0, active as u32, far.1));
+            pending.push((near.0, active as u32, near.1));
         }
     }
     scratch.stream_stack = pending;
@@ -174,7 +176,7 @@ fn test_leaf<K, V>(
     }
 }
 
-/// Finishes the subtree under node `index` (whose box rays `0..active` touch) one ray at a
+/// Finishes the subtree under node `start` (whose box rays `0..active` touch) one ray at a
 /// time: when only a few rays are left, the per-node cost of the stream (partition, stack)
 /// outweighs what they share. The single-ray loop with each ray's current range gives the same
 /// answers (they do not depend on the visiting order).
@@ -182,8 +184,8 @@ fn finish_one_by_one<B, K, V>(
     tree: &B,
     stream: &mut RayStream<'_>,
     active: usize,
-    index: u32,
-    scratch: &mut BvhScratch<B::Cache>,
+    start: (u32, B::NodeBox),
+    scratch: &mut BvhScratch<B::Cache, B::NodeBox>,
     visitor: &mut V,
 ) where
     B: Bvh,
@@ -193,7 +195,7 @@ fn finish_one_by_one<B, K, V>(
     for i in 0..active {
         let ray = stream.ray(i);
         let mut tmax = ray.tmax;
-        trace_below::<B, K, V>(tree, &ray, stream.id(i), index, &mut tmax, scratch, visitor);
+        trace_below::<B, K, V>(tree, &ray, stream.id(i), start, &mut tmax, scratch, visitor);
         stream.set_tmax(i, tmax);
     }
 }

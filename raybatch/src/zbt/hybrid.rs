@@ -16,7 +16,7 @@ use glam::Vec3;
 use super::build::RangeBuilder;
 use super::cache::BoxCache;
 use super::packed::PackedMesh;
-use super::tree::ZbtStats;
+use super::tree::{ZbtStats, cached_bounds};
 use super::{MAX_TRIANGLES, Rejected, ZbtError, ZbtOptions, check_common};
 use crate::accel::Footprint;
 use crate::bvh::build::{Extent, Prim, prims_of, split_in_two};
@@ -27,7 +27,7 @@ use crate::mesh::Mesh;
 use crate::workspace::StructureId;
 
 /// How to build a [`HybridTree`].
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub struct HybridOptions {
     /// How each chunk's zero-byte tree is built (and whether boxes are cached).
     pub zbt: ZbtOptions,
@@ -90,13 +90,7 @@ impl HybridTree {
             0
         } else {
             let builder = TopBuilder {
-                chunk: RangeBuilder {
-                    mesh: &mesh,
-                    leaf_size: options.zbt.leaf_size,
-                    vertices: options.zbt.box_vertices,
-                    ordering: options.zbt.ordering,
-                    parallel: crate::parallel::enabled(options.zbt.parallel),
-                },
+                chunk: RangeBuilder::new(&options.zbt),
                 chunk_size: options.chunk_size as usize,
             };
             builder.build(&mut prims, &mut high, 0, 0, &mut top).1
@@ -162,6 +156,16 @@ impl HybridTree {
     }
 }
 
+impl HybridTree {
+    /// The box of zero-byte node `index` (a number past the top nodes).
+    #[inline(always)]
+    fn zbt_bounds(&self, index: u32, parent: &Aabb, inherited: u8, cache: &mut BoxCache) -> Aabb {
+        let child = (index, index - self.top.len() as u32);
+        let (packed, options) = (&self.packed, &self.options.zbt);
+        cached_bounds(packed, self.id, options, child, parent, inherited, cache)
+    }
+}
+
 /// The limits of a hybrid tree.
 fn check(mesh: &Mesh, options: &HybridOptions) -> Result<(), ZbtError> {
     check_common(mesh, options.zbt.leaf_size)?;
@@ -183,12 +187,12 @@ fn chunk_roots(top: &[TopNode], base: u32, tree_len: u32) -> impl Iterator<Item 
 }
 
 /// Builds the top levels down to chunks.
-struct TopBuilder<'a> {
-    chunk: RangeBuilder<'a>,
+struct TopBuilder {
+    chunk: RangeBuilder,
     chunk_size: usize,
 }
 
-impl TopBuilder<'_> {
+impl TopBuilder {
     /// Builds the subtree over `prims` (tree positions `position..`), appending top nodes to
     /// `top`; returns the subtree's root reference and its depth in nodes.
     fn build(
@@ -227,23 +231,32 @@ impl TopBuilder<'_> {
 
 impl Bvh for HybridTree {
     type Cache = BoxCache;
+    type NodeBox = Aabb;
+
+    #[inline(always)]
+    fn keep(bounds: &Aabb) -> Aabb {
+        *bounds
+    }
 
     fn len(&self) -> usize {
         self.top.len() + self.packed.tree_len() as usize
     }
 
+    fn root_bounds(&self, cache: &mut BoxCache) -> Aabb {
+        match self.top.first() {
+            Some(root) => root.bounds,
+            None => self.zbt_bounds(0, &Aabb::EMPTY, 0, cache),
+        }
+    }
+
+    /// A top node's children are top nodes (stored boxes) or zero-byte roots (which inherit
+    /// nothing); a zero-byte node's children are zero-byte nodes.
     #[inline(always)]
-    fn bounds(&self, index: u32, cache: &mut BoxCache) -> Aabb {
-        let base = self.top.len() as u32;
-        if index < base {
-            return self.top[index as usize].bounds;
-        }
-        let p = index - base;
-        if self.options.zbt.box_cache {
-            cache.get(self.id, index, || self.packed.bounds(p))
-        } else {
-            self.packed.bounds(p)
-        }
+    fn child_bounds(&self, node: &Node, node_box: &Aabb, cache: &mut BoxCache) -> [Aabb; 2] {
+        [0, 1].map(|k| match self.top.get(node.children[k] as usize) {
+            Some(top) => top.bounds,
+            None => self.zbt_bounds(node.children[k], node_box, node.inherited[k], cache),
+        })
     }
 
     #[inline(always)]
@@ -255,6 +268,7 @@ impl Bvh for HybridTree {
                 count: 0,
                 children: n.children,
                 order: n.order,
+                inherited: [0, 0],
             },
             None => self.packed.node(index - base, base),
         }

@@ -8,14 +8,12 @@
 //! - high word of triangle `P` (the *node word*): `count - 1` in bits 0..3, and in bits 3..24
 //!   the offset from `P` to the second child (0 for a leaf). The first child is implicit: it
 //!   starts right after the node's triangles, at `P + count`.
-//! - high word of triangle `P + 1` (the *aux word*, only meaningful when `count >= 2`): the
-//!   precomputed node sorting byte in bits 0..8 (internal nodes), then in bit 8 the *selected*
-//!   flag and from bit 9 a 2-bit corner selector for each of the node's first 7 triangles (see
-//!   [`super::BoxVertices::Selected`]).
+//! - high word of triangle `P + 1` (the *aux word* of an internal node, which always owns at
+//!   least 2 triangles): the precomputed node sorting byte in bits 0..8, then the *inherited
+//!   faces* of the first child in bits 8..14 and of the second in bits 14..20 (bit `a`: min on
+//!   axis `a`, bit `3 + a`: max), see [`super::build`].
 //!
-//! A node with one triangle has no aux word: an internal one reads its first child's node word
-//! as its ordering byte. That is the seed's "wrong but harmless" case: the byte only orders the
-//! visit, never the answer. Offsets are relative, so a tree can sit anywhere in a larger array
+//! Leaves need no aux word. Offsets are relative, so a tree can sit anywhere in a larger array
 //! (the hybrid tree's chunks); 21 offset bits bound a zero-byte tree to [`MAX_TRIANGLES`].
 
 /// Bits of a vertex index that address vertices; the rest hold node data.
@@ -32,12 +30,10 @@ pub(crate) const MAX_NODE_TRIANGLES: u32 = 1 << COUNT_BITS;
 const OFFSET_BITS: u32 = INDEX_BITS - COUNT_BITS;
 /// Most triangles one zero-byte tree may hold: offsets to a second child must fit 21 bits.
 pub const MAX_TRIANGLES: usize = 1 << OFFSET_BITS;
-/// Triangles of a node that carry a corner selector in the aux word.
-pub(crate) const MAX_SELECTORS: usize = 7;
-/// Bit of the aux word that says the node's box comes from one selected corner per triangle.
-const SELECTED_BIT: u32 = 1 << 8;
-/// First selector bit of the aux word.
-const SELECTOR_SHIFT: u32 = 9;
+/// First bit of the children's inherited-face masks in the aux word.
+const FACES_SHIFT: u32 = 8;
+/// Bits of one inherited-face mask.
+const FACE_BITS: u32 = 6;
 
 /// The 24-bit high word of a packed triangle.
 #[inline(always)]
@@ -74,18 +70,12 @@ pub(crate) fn unpack_node_word(word: u32) -> (u32, u32) {
     ((word & (MAX_NODE_TRIANGLES - 1)) + 1, word >> COUNT_BITS)
 }
 
-/// An aux word: the ordering byte and, if given, one corner selector per triangle.
-pub(crate) fn aux_word(order: u8, selectors: Option<&[u8]>) -> u32 {
-    let Some(selectors) = selectors else {
-        return order as u32;
-    };
-    debug_assert!(selectors.len() <= MAX_SELECTORS && selectors.iter().all(|&s| s < 3));
-    selectors
-        .iter()
-        .enumerate()
-        .fold(order as u32 | SELECTED_BIT, |w, (k, &s)| {
-            w | ((s as u32) << (SELECTOR_SHIFT + 2 * k as u32))
-        })
+/// An internal node's aux word: its ordering byte and the faces each child inherits.
+pub(crate) fn aux_word(order: u8, inherited: [u8; 2]) -> u32 {
+    debug_assert!(inherited.iter().all(|&m| m < 1 << FACE_BITS));
+    order as u32
+        | (inherited[0] as u32) << FACES_SHIFT
+        | (inherited[1] as u32) << (FACES_SHIFT + FACE_BITS)
 }
 
 /// The ordering byte of an aux word.
@@ -94,11 +84,14 @@ pub(crate) fn aux_order(aux: u32) -> u8 {
     aux as u8
 }
 
-/// The corner selectors of an aux word (`None` if the box needs every corner), as a word
-/// whose 2-bit fields, lowest first, are the selectors of the node's triangles.
+/// The faces each child inherits, from an aux word.
 #[inline(always)]
-pub(crate) fn aux_selectors(aux: u32) -> Option<u32> {
-    (aux & SELECTED_BIT != 0).then_some(aux >> SELECTOR_SHIFT)
+pub(crate) fn aux_inherited(aux: u32) -> [u8; 2] {
+    let mask = (1 << FACE_BITS) - 1;
+    [
+        ((aux >> FACES_SHIFT) & mask) as u8,
+        ((aux >> (FACES_SHIFT + FACE_BITS)) & mask) as u8,
+    ]
 }
 
 #[cfg(test)]
@@ -128,15 +121,10 @@ mod tests {
 
     #[test]
     fn aux_words_round_trip() {
-        let sel = [2u8, 0, 1, 2, 1, 0, 2];
-        let w = aux_word(0xA5, Some(&sel));
+        let w = aux_word(0xA5, [0b10_1101, 0b11_1111]);
         assert!(w < 1 << 24);
         assert_eq!(aux_order(w), 0xA5);
-        let s = aux_selectors(w).unwrap();
-        for (k, &e) in sel.iter().enumerate() {
-            assert_eq!((s >> (2 * k)) & 3, e as u32);
-        }
-        assert_eq!(aux_selectors(aux_word(7, None)), None);
-        assert_eq!(aux_order(aux_word(7, None)), 7);
+        assert_eq!(aux_inherited(w), [0b10_1101, 0b11_1111]);
+        assert_eq!(aux_inherited(aux_word(7, [0, 0])), [0, 0]);
     }
 }

@@ -9,7 +9,7 @@
 //!
 //! - `layout`: where the node data sits in the index bits (the limits follow from it);
 //! - `cover`: which triangles define a node's box;
-//! - `build`: the SAH build around those covers;
+//! - `build`: the SAH build around those covers, and the faces children inherit;
 //! - `packed`: reading nodes, boxes and triangles back from the packed mesh;
 //! - [`cache`]: the per-thread box cache shared by every tree;
 //! - `tree`: [`ZeroByteTree`]; `hybrid`: [`HybridTree`], an AABB tree whose leaves are
@@ -39,29 +39,15 @@ pub use tree::{ZbtStats, ZeroByteTree};
 use crate::bvh::ChildOrdering;
 use crate::mesh::Mesh;
 
-/// Which corners a node's box is recomputed from.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
-pub enum BoxVertices {
-    /// Every corner of the node's triangles (3 vertex reads per triangle). The default: its
-    /// covers need fewer triangles (3.9 per internal node on the bunny, against 4.6), and each
-    /// visit tests them all, which outweighs the vertex reads the cache mostly saves anyway
-    /// (`cargo run --release -p raybatch-tools --example zbt_variants`).
-    #[default]
-    All,
-    /// One corner per triangle, chosen at build time and named by 2-bit selectors in the node's
-    /// spare bits; nodes where no such choice exists fall back to every corner. (The seed
-    /// rotates each triangle's corners instead; selectors give the same reads without changing
-    /// the user's corner order, which would move `t` and the barycentrics by rounding.)
-    Selected,
-}
-
 /// How to build a [`ZeroByteTree`].
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ZbtOptions {
     /// Sets of at most this many triangles (1..=8) become leaves.
     pub leaf_size: u32,
-    /// Which corners a box is recomputed from.
-    pub box_vertices: BoxVertices,
+    /// A child inherits a face of its parent's box (and needs no triangle reaching it) when
+    /// the gap is at most this fraction of the child's extent on that axis; 0 keeps every box
+    /// exact (see `build`).
+    pub inherit_slack: f32,
     /// Keep recomputed boxes in the per-thread [`BoxCache`].
     pub box_cache: bool,
     /// How internal nodes order their children.
@@ -74,7 +60,7 @@ impl Default for ZbtOptions {
     fn default() -> Self {
         Self {
             leaf_size: 4,
-            box_vertices: BoxVertices::default(),
+            inherit_slack: 0.1,
             box_cache: true,
             ordering: ChildOrdering::Pns,
             parallel: true,

@@ -6,9 +6,9 @@
 
 use glam::{Vec3, Vec3A};
 
+use super::build::inherit;
 use super::layout::{
-    INDEX_MASK, MAX_SELECTORS, aux_order, aux_selectors, high_word, indices, set_high_word,
-    unpack_node_word,
+    INDEX_MASK, aux_inherited, aux_order, high_word, indices, set_high_word, unpack_node_word,
 };
 use crate::bvh::Node;
 use crate::bvh::build::Prim;
@@ -74,54 +74,43 @@ impl PackedMesh {
         if offset == 0 {
             return Node::leaf(p, count);
         }
-        // An internal node has a first child right after its triangles, so `p + 1` exists.
-        let order = aux_order(high_word(&self.triangles[p as usize + 1]));
+        // An internal node owns at least 2 triangles: `p + 1` is its aux word.
+        let aux = high_word(&self.triangles[p as usize + 1]);
         Node {
             first: p,
             count,
             children: [base + p + count, base + p + offset],
-            order,
+            order: aux_order(aux),
+            inherited: aux_inherited(aux),
         }
     }
 
-    /// The box of the node at position `p`, recomputed from its triangles: one selected
-    /// corner per triangle where the node has selectors, every corner otherwise.
+    /// The box of the node at position `p`, recomputed from the corners of its triangles, with
+    /// the faces of `inherited` taken from its parent's box `parent` (see [`super::build`]).
     #[inline(always)]
-    pub(crate) fn bounds(&self, p: u32) -> Aabb {
+    pub(crate) fn bounds(&self, p: u32, parent: &Aabb, inherited: u8) -> Aabb {
         let p = p as usize;
         let (count, _) = unpack_node_word(high_word(&self.triangles[p]));
-        let owned = &self.triangles[p..p + count as usize];
-        let corner = |index: u32| Vec3A::from(self.vertices[(index & INDEX_MASK) as usize]);
         let (mut min, mut max) = (Vec3A::INFINITY, Vec3A::NEG_INFINITY);
-        let selectors = (count >= 2).then(|| aux_selectors(high_word(&owned[1])));
-        if let Some(Some(selectors)) = selectors {
-            for (k, t) in owned.iter().take(MAX_SELECTORS).enumerate() {
-                let c = corner(t[((selectors >> (2 * k)) & 3) as usize]);
+        for t in &self.triangles[p..p + count as usize] {
+            for &index in t {
+                let c = Vec3A::from(self.vertices[(index & INDEX_MASK) as usize]);
                 (min, max) = (min.min(c), max.max(c));
             }
-        } else {
-            for t in owned {
-                for &index in t {
-                    let c = corner(index);
-                    (min, max) = (min.min(c), max.max(c));
-                }
-            }
+        }
+        if inherited != 0 {
+            let parent = (parent.min.into(), parent.max.into());
+            (min, max) = inherit((min, max), parent, inherited);
         }
         Aabb::new(min.into(), max.into())
     }
 
-    /// Whether the node at position `p` recomputes its box from selected corners.
-    pub(crate) fn has_selectors(&self, p: u32) -> bool {
-        let (count, _) = unpack_node_word(high_word(&self.triangles[p as usize]));
-        count >= 2 && aux_selectors(high_word(&self.triangles[p as usize + 1])).is_some()
-    }
-
     /// Calls `f` with every node of the zero-byte (sub)tree rooted at position `root`.
-    pub(crate) fn walk(&self, root: u32, mut f: impl FnMut(u32, &Node)) {
+    pub(crate) fn walk(&self, root: u32, mut f: impl FnMut(&Node)) {
         let mut stack = vec![root];
         while let Some(p) = stack.pop() {
             let node = self.node(p, 0);
-            f(p, &node);
+            f(&node);
             if node.has_children() {
                 stack.extend(node.children);
             }

@@ -53,13 +53,7 @@ impl ZeroByteTree {
         let depth = if prims.is_empty() {
             0
         } else {
-            let builder = RangeBuilder {
-                mesh: &mesh,
-                leaf_size: options.leaf_size,
-                vertices: options.box_vertices,
-                ordering: options.ordering,
-                parallel: crate::parallel::enabled(options.parallel),
-            };
+            let builder = RangeBuilder::new(options);
             builder.build(&mut prims, &mut high, 0)
         };
         let (packed, permutation) = PackedMesh::pack(mesh, &prims, &high);
@@ -105,6 +99,26 @@ impl ZeroByteTree {
     }
 }
 
+/// The box of the zero-byte node at position `child.1` (node number `child.0` in its tree),
+/// whose parent's box is `parent`, through the thread's box cache if the options say so.
+#[inline(always)]
+pub(crate) fn cached_bounds(
+    packed: &PackedMesh,
+    id: StructureId,
+    options: &ZbtOptions,
+    child: (u32, u32),
+    parent: &Aabb,
+    inherited: u8,
+    cache: &mut BoxCache,
+) -> Aabb {
+    let (node, p) = child;
+    if options.box_cache {
+        cache.get(id, node, || packed.bounds(p, parent, inherited))
+    } else {
+        packed.bounds(p, parent, inherited)
+    }
+}
+
 /// The root of a zero-byte tree, if it has one.
 fn packed_roots(packed: &PackedMesh) -> Option<u32> {
     (packed.tree_len() > 0).then_some(0)
@@ -119,11 +133,8 @@ pub struct ZbtStats {
     pub internal_nodes: usize,
     /// Triangles owned by nodes with children (tested at every visit on the way down).
     pub internal_triangles: usize,
-    /// Internal nodes owning one triangle: they have no ordering byte of their own (the seed's
-    /// "wrong but harmless" case).
-    pub single_triangle_internal_nodes: usize,
-    /// Nodes whose box comes from one selected corner per triangle.
-    pub selected_corner_nodes: usize,
+    /// Faces inherited from the parent's box, over all nodes (6 per node at most).
+    pub inherited_faces: usize,
 }
 
 impl ZbtStats {
@@ -131,13 +142,13 @@ impl ZbtStats {
     pub(crate) fn of(packed: &PackedMesh, roots: impl IntoIterator<Item = u32>) -> Self {
         let mut stats = Self::default();
         for root in roots {
-            packed.walk(root, |p, node| {
+            packed.walk(root, |node| {
                 stats.nodes += 1;
-                stats.selected_corner_nodes += packed.has_selectors(p) as usize;
                 if node.has_children() {
                     stats.internal_nodes += 1;
                     stats.internal_triangles += node.count as usize;
-                    stats.single_triangle_internal_nodes += (node.count == 1) as usize;
+                    let inherited = node.inherited.map(|m| m.count_ones() as usize);
+                    stats.inherited_faces += inherited[0] + inherited[1];
                 }
             });
         }
@@ -159,18 +170,44 @@ fn check(mesh: &Mesh, options: &ZbtOptions) -> Result<(), ZbtError> {
 
 impl Bvh for ZeroByteTree {
     type Cache = BoxCache;
+    type NodeBox = Aabb;
+
+    #[inline(always)]
+    fn keep(bounds: &Aabb) -> Aabb {
+        *bounds
+    }
 
     fn len(&self) -> usize {
         self.packed.tree_len() as usize
     }
 
+    fn root_bounds(&self, cache: &mut BoxCache) -> Aabb {
+        cached_bounds(
+            &self.packed,
+            self.id,
+            &self.options,
+            (0, 0),
+            &Aabb::EMPTY,
+            0,
+            cache,
+        )
+    }
+
     #[inline(always)]
-    fn bounds(&self, index: u32, cache: &mut BoxCache) -> Aabb {
-        if self.options.box_cache {
-            cache.get(self.id, index, || self.packed.bounds(index))
-        } else {
-            self.packed.bounds(index)
-        }
+    fn child_bounds(&self, node: &Node, node_box: &Aabb, cache: &mut BoxCache) -> [Aabb; 2] {
+        [0, 1].map(|k| {
+            let child = (node.children[k], node.children[k]);
+            let inherited = node.inherited[k];
+            cached_bounds(
+                &self.packed,
+                self.id,
+                &self.options,
+                child,
+                node_box,
+                inherited,
+                cache,
+            )
+        })
     }
 
     #[inline(always)]
