@@ -18,6 +18,7 @@ use super::single::{test_triangles, trace_below};
 use crate::accel::RayStream;
 use crate::bvh::ordering::second_child_first;
 use crate::bvh::{Bvh, BvhScratch};
+use crate::geom::sign_filter::RayQuad;
 use crate::geom::{PreparedRay, TriangleTest};
 use crate::hit::Visitor;
 
@@ -97,37 +98,56 @@ impl LeafBatch {
         })
     }
 
-    /// Tests rays `0..active` of `stream` against the batch, four at a time through the
-    /// watertight sign filter ([`crate::geom::sign_filter`]), so that the scalar kernel only
-    /// runs on the pairs the filter cannot prove to miss; each ray still sees its triangles in
-    /// batch order, so the visitor gets exactly the hits, in the order, of [`LeafBatch::test`].
-    /// Returns how many rays it handled (a multiple of 4); the rest are the caller's.
+    /// For each triangle, the lanes of `quad` that may hit it (bit `k`: ray `k`), and the
+    /// union: the watertight sign filter ([`crate::geom::sign_filter`]) proves the rest miss.
+    #[inline(always)]
+    pub(crate) fn may_hit(&self, quad: &RayQuad) -> ([u32; LEAF_BATCH], u32) {
+        let mut masks = [0u32; LEAF_BATCH];
+        let mut any = 0;
+        for (mask, (_, corners)) in masks.iter_mut().zip(&self.triangles[..self.len]) {
+            *mask = quad.may_hit(corners);
+            any |= *mask;
+        }
+        (masks, any)
+    }
+
+    /// [`LeafBatch::test`] on the triangles whose `masks` have bit `lane` set, in batch order:
+    /// with masks from [`LeafBatch::may_hit`] the visitor sees the same hits in the same order.
+    #[inline(always)]
+    pub(crate) fn test_lane<K: TriangleTest, V: Visitor>(
+        &self,
+        (masks, lane): (&[u32; LEAF_BATCH], usize),
+        ray: &PreparedRay,
+        id: u32,
+        tmax: &mut f32,
+        visitor: &mut V,
+    ) {
+        let kept = self.triangles[..self.len]
+            .iter()
+            .zip(masks)
+            .filter(|(_, mask)| *mask & (1 << lane) != 0)
+            .map(|(triangle, _)| *triangle);
+        test_triangles::<K, V>(ray, id, kept, tmax, visitor);
+    }
+
+    /// Tests rays `0..active` of `stream` against the batch four at a time through the sign
+    /// filter, the scalar kernel only where a hit is possible. Returns how many rays it
+    /// handled (a multiple of 4); the rest are the caller's.
     #[inline]
-    pub(crate) fn test_quads<K: TriangleTest, V: Visitor>(
+    fn test_quads<K: TriangleTest, V: Visitor>(
         &self,
         stream: &mut RayStream<'_>,
         active: usize,
         visitor: &mut V,
     ) -> usize {
         let handled = active / 4 * 4;
-        let triangles = &self.triangles[..self.len];
-        let mut masks = [0u32; LEAF_BATCH];
         for i in (0..handled).step_by(4) {
-            let quad = stream.quad(i);
-            let mut any = 0;
-            for (mask, (_, corners)) in masks.iter_mut().zip(triangles) {
-                *mask = quad.may_hit(corners);
-                any |= *mask;
-            }
+            let (masks, any) = self.may_hit(&stream.quad(i));
             for lane in (0..4).filter(|lane| any & (1 << lane) != 0) {
                 let ray = stream.ray(i + lane);
                 let mut tmax = ray.tmax;
-                let kept = triangles
-                    .iter()
-                    .zip(&masks)
-                    .filter(|(_, mask)| *mask & (1 << lane) != 0)
-                    .map(|(triangle, _)| *triangle);
-                test_triangles::<K, V>(&ray, stream.id(i + lane), kept, &mut tmax, visitor);
+                let id = stream.id(i + lane);
+                self.test_lane::<K, V>((&masks, lane), &ray, id, &mut tmax, visitor);
                 stream.set_tmax(i + lane, tmax);
             }
         }
