@@ -78,7 +78,8 @@ impl<N: NodeFormat> Bvh for AabbTree<N> {
 
     #[inline(always)]
     fn child_bounds(&self, node: &Node, _: &(), _: &mut ()) -> [Aabb; 2] {
-        node.children.map(|c| self.nodes.bounds(c))
+        let [a, b] = node.children;
+        [self.nodes.bounds(a), self.nodes.bounds(b)]
     }
 
     #[inline(always)]

@@ -157,6 +157,15 @@ impl HybridTree {
 }
 
 impl HybridTree {
+    /// The box of child `k` of `node`, whose box is `node_box`.
+    #[inline(always)]
+    fn child_box(&self, node: &Node, k: usize, node_box: &Aabb, cache: &mut BoxCache) -> Aabb {
+        match self.top.get(node.children[k] as usize) {
+            Some(top) => top.bounds,
+            None => self.zbt_bounds(node.children[k], node_box, node.inherited[k], cache),
+        }
+    }
+
     /// The box of zero-byte node `index` (a number past the top nodes).
     #[inline(always)]
     fn zbt_bounds(&self, index: u32, parent: &Aabb, inherited: u8, cache: &mut BoxCache) -> Aabb {
@@ -253,10 +262,12 @@ impl Bvh for HybridTree {
     /// nothing); a zero-byte node's children are zero-byte nodes.
     #[inline(always)]
     fn child_bounds(&self, node: &Node, node_box: &Aabb, cache: &mut BoxCache) -> [Aabb; 2] {
-        [0, 1].map(|k| match self.top.get(node.children[k] as usize) {
-            Some(top) => top.bounds,
-            None => self.zbt_bounds(node.children[k], node_box, node.inherited[k], cache),
-        })
+        // Two calls of an always-inlined method: a closure or `[0, 1].map(..)` is left out of
+        // line by the compiler (measured: +16% instructions per ray).
+        [
+            self.child_box(node, 0, node_box, cache),
+            self.child_box(node, 1, node_box, cache),
+        ]
     }
 
     #[inline(always)]
