@@ -36,11 +36,11 @@ pub struct HybridOptions {
 }
 
 impl HybridOptions {
-    /// The default chunk size: on the bunny, chunks of 64 answer single rays at 0.6 to 0.9
-    /// times the AABB tree's speed across runs (0.55 by instruction count) for 0.8 bytes per
-    /// triangle; 16 at 0.72 for 3.2 bytes, 512 at 0.46 for 0.1 bytes (`cargo run --release -p
-    /// raybatch-tools --example zbt_variants`, README). 64 keeps most of the speed of the
-    /// smaller chunks at a quarter of their memory.
+    /// The default chunk size: chunks of 64 answer single rays at 0.72 to 0.81 times the AABB
+    /// tree's speed on the city and the bunny (0.53 by instruction count) for 0.8 bytes per
+    /// triangle; 16 at 0.73 to 1.03 for 3.2 bytes, 512 at 0.53 to 0.65 for 0.1 bytes (`cargo
+    /// run --release -p raybatch-tools --example zbt_variants`, README). 64 keeps most of the
+    /// speed of the smaller chunks at a quarter of their memory.
     pub const DEFAULT_CHUNK_SIZE: u32 = 64;
 }
 
