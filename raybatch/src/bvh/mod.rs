@@ -3,11 +3,12 @@
 //!
 //! A BVH only says what its nodes hold; the traversals are written once against [`Bvh`] in
 //! [`crate::traverse`] (one ray at a time, and a stream of rays going down once), which makes
-//! every `Bvh` an [`crate::accel::Accel`]. A node's box is read apart from its contents
-//! ([`Bvh::bounds`] and [`Bvh::node`]) so that a traversal computes each box once: a tree whose
-//! boxes are expensive (dequantized, or recomputed from triangles like the zero-byte tree's)
-//! pays for each box once per visit. Box reads take the structure's per-thread cache
-//! ([`Bvh::Cache`], kept in the thread's [`crate::workspace::Workspace`]).
+//! every `Bvh` an [`crate::accel::Accel`]. A node's box is read apart from its contents, both
+//! children's at once, given the parent's box ([`Bvh::child_bounds`] and [`Bvh::node`]), so
+//! that a traversal computes each box once: a tree whose boxes are expensive (dequantized, or
+//! recomputed from triangles like the zero-byte tree's, whose children may inherit faces of
+//! their parent's box) pays for each box once per visit. Box reads take the structure's
+//! per-thread cache ([`Bvh::Cache`], kept in the thread's [`crate::workspace::Workspace`]).
 //!
 //! A node may own triangles *and* have children (the zero-byte tree's nodes do): traversal
 //! tests a node's triangles, then descends.
