@@ -73,6 +73,17 @@ impl RangeBuilder {
         self.node(prims, high, depth, root)
     }
 
+    /// [`RangeBuilder::build`] for a tree whose root's box is stored by its parent (the
+    /// hybrid tree's top node) as the exact box of `prims`: the root inherits every face.
+    pub(crate) fn build_inside(&self, prims: &mut [Prim], high: &mut [u32], depth: usize) -> usize {
+        debug_assert!(!prims.is_empty() && prims.len() == high.len());
+        let root = Given {
+            inherited: ALL_FACES,
+            bounds: Extent::of(prims).bounds,
+        };
+        self.node(prims, high, depth, root)
+    }
+
     fn node(&self, prims: &mut [Prim], high: &mut [u32], depth: usize, given: Given) -> usize {
         let m = prims.len();
         if m <= self.leaf_size as usize {

@@ -53,11 +53,12 @@ impl Default for HybridOptions {
     }
 }
 
-/// A top node: its box, its children (top nodes, or zero-byte roots marked by [`ZBT_ROOT`]
-/// during the build), its ordering byte.
+/// A top node: its children (top nodes, or zero-byte roots marked by [`ZBT_ROOT`] during the
+/// build), their boxes, its ordering byte. Storing the children's boxes here lets a chunk's
+/// root inherit every face of its stored box, so it owns no covering triangles.
 #[derive(Clone, Copy, Debug)]
 struct TopNode {
-    bounds: Aabb,
+    boxes: [Aabb; 2],
     children: [u32; 2],
     order: u8,
 }
@@ -69,6 +70,8 @@ const ZBT_ROOT: u32 = 1 << 31;
 #[derive(Debug)]
 pub struct HybridTree {
     top: Vec<TopNode>,
+    /// The root's box when there are top nodes.
+    root_box: Aabb,
     packed: PackedMesh,
     depth: usize,
     node_count: usize,
@@ -86,6 +89,7 @@ impl HybridTree {
         let mut prims = prims_of(&mesh);
         let mut high = vec![0u32; prims.len()];
         let mut top = Vec::new();
+        let root_box = Extent::of(&prims).bounds.aabb();
         let depth = if prims.is_empty() {
             0
         } else {
@@ -108,6 +112,7 @@ impl HybridTree {
         let tree = Self {
             node_count: top.len() + chunk_nodes,
             top,
+            root_box,
             packed,
             depth,
             id: StructureId::new(),
@@ -157,13 +162,14 @@ impl HybridTree {
 }
 
 impl HybridTree {
-    /// The box of child `k` of `node`, whose box is `node_box`.
+    /// The box of child `k` of `node`, whose box is `node_box`: stored in a top node (which
+    /// owns no triangles and names itself in `first`), recomputed below.
     #[inline(always)]
     fn child_box(&self, node: &Node, k: usize, node_box: &Aabb, cache: &mut BoxCache) -> Aabb {
-        match self.top.get(node.children[k] as usize) {
-            Some(top) => top.bounds,
-            None => self.zbt_bounds(node.children[k], node_box, node.inherited[k], cache),
+        if node.count == 0 {
+            return self.top[node.first as usize].boxes[k];
         }
+        self.zbt_bounds(node.children[k], node_box, node.inherited[k], cache)
     }
 
     /// The box of zero-byte node `index` (a number past the top nodes).
@@ -213,14 +219,20 @@ impl TopBuilder {
         top: &mut Vec<TopNode>,
     ) -> (u32, usize) {
         if prims.len() <= self.chunk_size {
-            let chunk_depth = self.chunk.build(prims, high, depth);
+            // A chunk under a top node inherits the box stored there; a mesh that is one chunk
+            // has no top node and its root computes its own box.
+            let chunk_depth = if depth == 0 {
+                self.chunk.build(prims, high, depth)
+            } else {
+                self.chunk.build_inside(prims, high, depth)
+            };
             return (ZBT_ROOT | position, chunk_depth);
         }
         let extent = Extent::of(prims);
         let (axis, mid, left, right) = split_in_two(prims, &extent, depth);
         let index = top.len() as u32;
         top.push(TopNode {
-            bounds: extent.bounds.aabb(),
+            boxes: [left.bounds.aabb(), right.bounds.aabb()],
             children: [0, 0],
             order: ordering_byte(
                 self.chunk.ordering,
@@ -252,10 +264,10 @@ impl Bvh for HybridTree {
     }
 
     fn root_bounds(&self, cache: &mut BoxCache) -> Aabb {
-        match self.top.first() {
-            Some(root) => root.bounds,
-            None => self.zbt_bounds(0, &Aabb::EMPTY, 0, cache),
+        if self.top.is_empty() {
+            return self.zbt_bounds(0, &Aabb::EMPTY, 0, cache);
         }
+        self.root_box
     }
 
     /// A top node's children are top nodes (stored boxes) or zero-byte roots (which inherit
@@ -275,7 +287,7 @@ impl Bvh for HybridTree {
         let base = self.top.len() as u32;
         match self.top.get(index as usize) {
             Some(n) => Node {
-                first: 0,
+                first: index,
                 count: 0,
                 children: n.children,
                 order: n.order,
