@@ -34,7 +34,7 @@ pub enum AccelKind {
     Zbt,
     /// [`ZeroByteTree`] with the box cache off: every box recomputed at every visit.
     ZbtNoCache,
-    /// [`HybridTree`]: stored boxes down to chunks of 64 triangles, zero-byte trees below.
+    /// [`HybridTree`]: stored boxes down to chunks of 32 triangles, zero-byte trees below.
     Hybrid,
 }
 
@@ -75,7 +75,7 @@ impl AccelKind {
             AccelKind::Bvh4 => "4-wide tree collapsed from the SAH tree, SIMD box tests",
             AccelKind::Zbt => "zero-byte tree: no memory beside the mesh, box cache",
             AccelKind::ZbtNoCache => "zero-byte tree without the box cache",
-            AccelKind::Hybrid => "AABB tree over zero-byte trees of 64-triangle chunks",
+            AccelKind::Hybrid => "AABB tree over zero-byte trees of 32-triangle chunks",
         }
     }
 

@@ -2,8 +2,9 @@
 //! hundred triangles, each chunk a zero-byte tree.
 //!
 //! The top levels, which every ray walks and whose boxes a zero-byte tree would recompute most
-//! often, get stored boxes (36 bytes per top node, about one top node per chunk: under a byte
-//! per triangle at the default chunk size); below them nothing is stored. Zero-byte child
+//! often, get stored boxes (a 60-byte top node holds both children's boxes, about one top node
+//! per chunk: 2.7 bytes per triangle at the default chunk size); below them nothing is stored,
+//! and a chunk's root inherits every face of the box its top node stores for it. Zero-byte child
 //! offsets are relative, so a chunk's tree works anywhere in the big array, and the 21-bit
 //! offset limit bounds the chunk size, not the mesh: the hybrid has no triangle limit (vertex
 //! indices must still fit 24 bits).
@@ -36,12 +37,11 @@ pub struct HybridOptions {
 }
 
 impl HybridOptions {
-    /// The default chunk size: chunks of 64 answer single rays at 0.72 to 0.81 times the AABB
-    /// tree's speed on the city and the bunny (0.53 by instruction count) for 0.8 bytes per
-    /// triangle; 16 at 0.73 to 1.03 for 3.2 bytes, 512 at 0.53 to 0.65 for 0.1 bytes (`cargo
-    /// run --release -p raybatch-tools --example zbt_variants`, README). 64 keeps most of the
-    /// speed of the smaller chunks at a quarter of their memory.
-    pub const DEFAULT_CHUNK_SIZE: u32 = 64;
+    /// The default chunk size: the fastest under 4 bytes per triangle. On the bunny, chunks of
+    /// 32 answer single rays at 0.76 times the AABB tree's speed (0.64 by instruction count)
+    /// for 2.7 bytes per triangle; 16 at 0.79 for 5.3 bytes, 64 at 0.69 for 1.4, 512 at 0.52
+    /// for 0.17 (`cargo run --release -p raybatch-tools --example zbt_variants`, README).
+    pub const DEFAULT_CHUNK_SIZE: u32 = 32;
 }
 
 impl Default for HybridOptions {
