@@ -264,15 +264,20 @@ fn bench_kind(
     }
 }
 
-/// Rays brute force is timed on: it tests every triangle, so a few thousand say enough.
+/// Rays brute force is timed on: it tests every triangle, so a few thousand say enough, and
+/// fewer on large meshes (about [`BRUTE_FORCE_TESTS`] ray/triangle tests, a few seconds).
 const BRUTE_FORCE_RAYS: usize = 2_000;
+const BRUTE_FORCE_TESTS: usize = 200_000_000;
+const BRUTE_FORCE_MIN_RAYS: usize = 100;
 
 /// One paragraph: brute force (the O(n) scan, the only other option that needs no memory
 /// beside the mesh) against the zero-byte trees, closest hit on incoherent rays, and what the
 /// zero-byte trees keep beside the mesh.
 fn zero_memory(scene: &BenchScene, rays: &RaySets, rows: &[Row]) -> String {
     let incoherent = rays.get(RaySet::Incoherent);
-    let sample = &incoherent[..incoherent.len().min(BRUTE_FORCE_RAYS)];
+    let affordable = BRUTE_FORCE_TESTS / scene.mesh.triangle_count().max(1);
+    let count = affordable.clamp(BRUTE_FORCE_MIN_RAYS, BRUTE_FORCE_RAYS);
+    let sample = &incoherent[..incoherent.len().min(count)];
     progress(&format!("{}: brute force ...", scene.name));
     let brute = brute_force_speed(&scene.mesh, sample);
     let zbt = rows
