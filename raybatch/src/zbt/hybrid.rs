@@ -17,7 +17,7 @@ use glam::Vec3;
 use super::build::RangeBuilder;
 use super::cache::BoxCache;
 use super::packed::PackedMesh;
-use super::tree::{ZbtStats, cached_bounds};
+use super::tree::ZbtStats;
 use super::{MAX_TRIANGLES, Rejected, ZbtError, ZbtOptions, check_common};
 use crate::accel::Footprint;
 use crate::bvh::build::{Extent, Prim, prims_of, split_in_two};
@@ -66,9 +66,15 @@ struct TopNode {
 /// During the build, a child that is a zero-byte root at position `p` is `ZBT_ROOT | p`.
 const ZBT_ROOT: u32 = 1 << 31;
 
-/// An AABB tree over zero-byte trees (see the module docs).
+/// A mesh packed as zero-byte trees, with stored top nodes above them if `TOP_LEVEL`: the one
+/// implementation of both public trees. [`HybridTree`] has the top level; [`ZeroByteTree`] is
+/// the same type without it (one chunk holding the whole mesh, whose root computes its own
+/// box), and `TOP_LEVEL = false` removes the top-node checks from its traversal at compile
+/// time.
+///
+/// [`ZeroByteTree`]: super::ZeroByteTree
 #[derive(Debug)]
-pub struct HybridTree {
+pub struct PackedTree<const TOP_LEVEL: bool> {
     top: Vec<TopNode>,
     /// The root's box when there are top nodes.
     root_box: Aabb,
@@ -76,8 +82,12 @@ pub struct HybridTree {
     depth: usize,
     node_count: usize,
     id: StructureId,
-    options: HybridOptions,
+    /// The options (a zero-byte tree reads `zbt` only).
+    pub(super) options: HybridOptions,
 }
+
+/// An AABB tree over zero-byte trees (see the module docs).
+pub type HybridTree = PackedTree<true>;
 
 impl HybridTree {
     /// Builds the tree by reordering `mesh`'s triangles; returns it with the permutation
@@ -86,6 +96,32 @@ impl HybridTree {
         if let Err(error) = check(&mesh, options) {
             return Err(Rejected { error, mesh });
         }
+        Ok(Self::build_checked(
+            mesh,
+            &options.zbt,
+            options.chunk_size as usize,
+        ))
+    }
+
+    /// The options the tree was built with.
+    pub fn options(&self) -> &HybridOptions {
+        &self.options
+    }
+
+    /// Number of top nodes (stored boxes).
+    pub fn top_node_count(&self) -> usize {
+        self.top.len()
+    }
+}
+
+impl<const TOP_LEVEL: bool> PackedTree<TOP_LEVEL> {
+    /// The build of a mesh and options that passed the checks. Without a top level the chunk
+    /// size is ignored: the whole mesh is one chunk.
+    pub(crate) fn build_checked(
+        mesh: Mesh,
+        zbt: &ZbtOptions,
+        chunk_size: usize,
+    ) -> (Self, Vec<u32>) {
         let mut prims = prims_of(&mesh);
         let mut high = vec![0u32; prims.len()];
         let mut top = Vec::new();
@@ -94,8 +130,8 @@ impl HybridTree {
             0
         } else {
             let builder = TopBuilder {
-                chunk: RangeBuilder::new(&options.zbt),
-                chunk_size: options.chunk_size as usize,
+                chunk: RangeBuilder::new(zbt),
+                chunk_size: if TOP_LEVEL { chunk_size } else { usize::MAX },
             };
             builder.build(&mut prims, &mut high, 0, 0, &mut top).1
         };
@@ -116,14 +152,12 @@ impl HybridTree {
             packed,
             depth,
             id: StructureId::new(),
-            options: *options,
+            options: HybridOptions {
+                zbt: *zbt,
+                chunk_size: chunk_size.min(u32::MAX as usize) as u32,
+            },
         };
-        Ok((tree, permutation))
-    }
-
-    /// The options the tree was built with.
-    pub fn options(&self) -> &HybridOptions {
-        &self.options
+        (tree, permutation)
     }
 
     /// The vertex array (unchanged by the build).
@@ -146,11 +180,6 @@ impl HybridTree {
         self.packed.into_mesh()
     }
 
-    /// Number of top nodes (stored boxes).
-    pub fn top_node_count(&self) -> usize {
-        self.top.len()
-    }
-
     /// The shape of the zero-byte chunks (all of them together).
     pub fn stats(&self) -> ZbtStats {
         let base = self.top.len() as u32;
@@ -161,23 +190,28 @@ impl HybridTree {
     }
 }
 
-impl HybridTree {
+impl<const TOP_LEVEL: bool> PackedTree<TOP_LEVEL> {
     /// The box of child `k` of `node`, whose box is `node_box`: stored in a top node (which
     /// owns no triangles and names itself in `first`), recomputed below.
     #[inline(always)]
     fn child_box(&self, node: &Node, k: usize, node_box: &Aabb, cache: &mut BoxCache) -> Aabb {
-        if node.count == 0 {
+        if TOP_LEVEL && node.count == 0 {
             return self.top[node.first as usize].boxes[k];
         }
         self.zbt_bounds(node.children[k], node_box, node.inherited[k], cache)
     }
 
-    /// The box of zero-byte node `index` (a number past the top nodes).
+    /// The box of zero-byte node `index` (a number past the top nodes), whose parent's box
+    /// is `parent`, through the thread's box cache if the options say so.
     #[inline(always)]
     fn zbt_bounds(&self, index: u32, parent: &Aabb, inherited: u8, cache: &mut BoxCache) -> Aabb {
-        let child = (index, index - self.top.len() as u32);
-        let (packed, options) = (&self.packed, &self.options.zbt);
-        cached_bounds(packed, self.id, options, child, parent, inherited, cache)
+        let base = if TOP_LEVEL { self.top.len() as u32 } else { 0 };
+        let p = index - base;
+        if self.options.zbt.box_cache {
+            cache.get(self.id, index, || self.packed.bounds(p, parent, inherited))
+        } else {
+            self.packed.bounds(p, parent, inherited)
+        }
     }
 }
 
@@ -250,7 +284,7 @@ impl TopBuilder {
     }
 }
 
-impl Bvh for HybridTree {
+impl<const TOP_LEVEL: bool> Bvh for PackedTree<TOP_LEVEL> {
     type Cache = BoxCache;
     type NodeBox = Aabb;
 
@@ -264,7 +298,7 @@ impl Bvh for HybridTree {
     }
 
     fn root_bounds(&self, cache: &mut BoxCache) -> Aabb {
-        if self.top.is_empty() {
+        if !TOP_LEVEL || self.top.is_empty() {
             return self.zbt_bounds(0, &Aabb::EMPTY, 0, cache);
         }
         self.root_box
@@ -284,6 +318,9 @@ impl Bvh for HybridTree {
 
     #[inline(always)]
     fn node(&self, index: u32) -> Node {
+        if !TOP_LEVEL {
+            return self.packed.node(index, 0);
+        }
         let base = self.top.len() as u32;
         match self.top.get(index as usize) {
             Some(n) => Node {
@@ -307,9 +344,13 @@ impl Bvh for HybridTree {
     }
 }
 
-impl Footprint for HybridTree {
+impl<const TOP_LEVEL: bool> Footprint for PackedTree<TOP_LEVEL> {
     fn name(&self) -> &'static str {
-        "hybrid"
+        match (TOP_LEVEL, self.options.zbt.box_cache) {
+            (true, _) => "hybrid",
+            (false, true) => "zbt",
+            (false, false) => "zbt-nocache",
+        }
     }
 
     fn triangle_count(&self) -> usize {
@@ -320,8 +361,8 @@ impl Footprint for HybridTree {
         self.node_count
     }
 
-    /// The top nodes (the zero-byte chunks add nothing; the per-thread box cache is reported
-    /// on its own).
+    /// The top nodes (none for a zero-byte tree; the zero-byte chunks add nothing; the
+    /// per-thread box cache is reported on its own: [`super::cache::BYTES`]).
     fn heap_bytes(&self) -> usize {
         self.top.len() * size_of::<TopNode>()
     }

@@ -13,8 +13,10 @@
 //! - `build`: the SAH build around those covers, and the faces children inherit;
 //! - `packed`: reading nodes, boxes and triangles back from the packed mesh;
 //! - [`cache`]: the per-thread box cache shared by every tree;
-//! - `tree`: [`ZeroByteTree`]; `hybrid`: [`HybridTree`], an AABB tree whose leaves are
-//!   zero-byte trees over chunks of triangles, which lifts the triangle limit.
+//! - `hybrid`: [`PackedTree`], the one implementation of both trees: [`HybridTree`], an AABB
+//!   tree whose leaves are zero-byte trees over chunks of triangles (which lifts the triangle
+//!   limit), and [`ZeroByteTree`], the same without the top level;
+//! - `tree`: the zero-byte tree's own build and limit, and the statistics both share.
 //!
 //! **Ids.** Both trees reorder the triangles and hand back the permutation (`new id -> original
 //! id`) without keeping it (it would cost 4 bytes per triangle): hits report the tree's ids.
@@ -33,7 +35,7 @@ mod packed;
 mod tree;
 
 pub use cache::BoxCache;
-pub use hybrid::{HybridOptions, HybridTree};
+pub use hybrid::{HybridOptions, HybridTree, PackedTree};
 pub use layout::{MAX_TRIANGLES, MAX_VERTICES};
 pub use tree::{ZbtStats, ZeroByteTree};
 

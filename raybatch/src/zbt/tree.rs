@@ -1,28 +1,18 @@
 //! [`ZeroByteTree`]: a mesh whose triangle order and index bits are the tree.
+//!
+//! A zero-byte tree is [`PackedTree`] without a top level (see [`super::hybrid`]): one chunk
+//! holding the whole mesh, whose root computes its own box. Traversal, boxes, accessors and
+//! accounting are written once there; this file adds the zero-byte tree's build, with its own
+//! triangle limit, and the tree statistics both share.
 
-use glam::Vec3;
-
-use super::build::RangeBuilder;
-use super::cache::BoxCache;
+use super::hybrid::PackedTree;
 use super::layout::MAX_TRIANGLES;
 use super::packed::PackedMesh;
 use super::{Rejected, ZbtError, ZbtOptions, check_common};
-use crate::accel::Footprint;
-use crate::bvh::build::prims_of;
-use crate::bvh::{Bvh, Node};
-use crate::geom::Aabb;
 use crate::mesh::Mesh;
-use crate::workspace::StructureId;
 
 /// A zero-byte AABB tree (see [the module docs](super)): the mesh, reordered, and nothing else.
-#[derive(Debug)]
-pub struct ZeroByteTree {
-    packed: PackedMesh,
-    depth: usize,
-    node_count: usize,
-    id: StructureId,
-    options: ZbtOptions,
-}
+pub type ZeroByteTree = PackedTree<false>;
 
 impl ZeroByteTree {
     /// Builds the tree by reordering `mesh`'s triangles; returns it with the permutation
@@ -48,80 +38,13 @@ impl ZeroByteTree {
         if let Err(error) = check(&mesh, options) {
             return Err(Rejected { error, mesh });
         }
-        let mut prims = prims_of(&mesh);
-        let mut high = vec![0u32; prims.len()];
-        let depth = if prims.is_empty() {
-            0
-        } else {
-            let builder = RangeBuilder::new(options);
-            builder.build(&mut prims, &mut high, 0)
-        };
-        let (packed, permutation) = PackedMesh::pack(mesh, &prims, &high);
-        let tree = Self {
-            node_count: ZbtStats::of(&packed, packed_roots(&packed)).nodes,
-            packed,
-            depth,
-            id: StructureId::new(),
-            options: *options,
-        };
-        Ok((tree, permutation))
+        Ok(Self::build_checked(mesh, options, usize::MAX))
     }
 
     /// The options the tree was built with.
     pub fn options(&self) -> &ZbtOptions {
-        &self.options
+        &self.options.zbt
     }
-
-    /// The shape of the tree (node counts, triangles per node).
-    pub fn stats(&self) -> ZbtStats {
-        ZbtStats::of(&self.packed, packed_roots(&self.packed))
-    }
-
-    /// The vertex array (unchanged by the build).
-    pub fn vertices(&self) -> &[Vec3] {
-        self.packed.vertices()
-    }
-
-    /// The plain index array in the tree's triangle order (a copy, node data removed): the
-    /// mesh stays usable as an ordinary mesh.
-    pub fn plain_triangles(&self) -> Vec<[u32; 3]> {
-        self.packed.plain_triangles()
-    }
-
-    /// A copy of the mesh in the tree's triangle order; triangle ids of hits refer to it.
-    pub fn to_mesh(&self) -> Mesh {
-        self.packed.to_mesh()
-    }
-
-    /// The mesh in the tree's triangle order, its arrays reused (the tree is gone).
-    pub fn into_mesh(self) -> Mesh {
-        self.packed.into_mesh()
-    }
-}
-
-/// The box of the zero-byte node at position `child.1` (node number `child.0` in its tree),
-/// whose parent's box is `parent`, through the thread's box cache if the options say so.
-#[inline(always)]
-pub(crate) fn cached_bounds(
-    packed: &PackedMesh,
-    id: StructureId,
-    options: &ZbtOptions,
-    child: (u32, u32),
-    parent: &Aabb,
-    inherited: u8,
-    cache: &mut BoxCache,
-) -> Aabb {
-    let (node, p) = child;
-    if options.box_cache {
-        cache.get(id, node, || packed.bounds(p, parent, inherited))
-    } else {
-        packed.bounds(p, parent, inherited)
-    }
-}
-
-/// The root of a zero-byte tree, if it has one.
-fn packed_roots(packed: &PackedMesh) -> Option<u32> {
-    (packed.tree_len() > 0).then_some(0)
 }
 
 /// The shape of a zero-byte tree (or of the zero-byte parts of a hybrid tree).
@@ -166,96 +89,4 @@ fn check(mesh: &Mesh, options: &ZbtOptions) -> Result<(), ZbtError> {
         });
     }
     Ok(())
-}
-
-impl Bvh for ZeroByteTree {
-    type Cache = BoxCache;
-    type NodeBox = Aabb;
-
-    #[inline(always)]
-    fn keep(bounds: &Aabb) -> Aabb {
-        *bounds
-    }
-
-    fn len(&self) -> usize {
-        self.packed.tree_len() as usize
-    }
-
-    fn root_bounds(&self, cache: &mut BoxCache) -> Aabb {
-        cached_bounds(
-            &self.packed,
-            self.id,
-            &self.options,
-            (0, 0),
-            &Aabb::EMPTY,
-            0,
-            cache,
-        )
-    }
-
-    #[inline(always)]
-    fn child_bounds(&self, node: &Node, node_box: &Aabb, cache: &mut BoxCache) -> [Aabb; 2] {
-        // Two calls of an always-inlined function: a closure or `[0, 1].map(..)` is left out
-        // of line by the compiler (measured: +5% instructions per ray).
-        let (packed, options) = (&self.packed, &self.options);
-        let child = |k: usize| (node.children[k], node.children[k]);
-        [
-            cached_bounds(
-                packed,
-                self.id,
-                options,
-                child(0),
-                node_box,
-                node.inherited[0],
-                cache,
-            ),
-            cached_bounds(
-                packed,
-                self.id,
-                options,
-                child(1),
-                node_box,
-                node.inherited[1],
-                cache,
-            ),
-        ]
-    }
-
-    #[inline(always)]
-    fn node(&self, index: u32) -> Node {
-        self.packed.node(index, 0)
-    }
-
-    #[inline(always)]
-    fn triangle(&self, slot: u32) -> (u32, [Vec3; 3]) {
-        self.packed.triangle(slot)
-    }
-
-    fn depth(&self) -> usize {
-        self.depth
-    }
-}
-
-impl Footprint for ZeroByteTree {
-    fn name(&self) -> &'static str {
-        if self.options.box_cache {
-            "zbt"
-        } else {
-            "zbt-nocache"
-        }
-    }
-
-    fn triangle_count(&self) -> usize {
-        self.packed.triangle_count()
-    }
-
-    fn node_count(&self) -> usize {
-        self.node_count
-    }
-
-    /// Nothing beside the mesh (the per-thread box cache is reported on its own:
-    /// [`super::cache::BYTES`]).
-    fn heap_bytes(&self) -> usize {
-        0
-    }
 }
