@@ -112,7 +112,7 @@ pub fn all_combos(min_chunk: usize, min_batch: usize) -> Vec<Combo> {
 }
 
 /// The `per_tree` combinations structure number `tree` of the zoo gets: with `per_tree = 32`,
-/// the 18 structures of the two kinds together get each of the 576 combinations exactly once
+/// the zoo's first 18 structures together get each of the 576 combinations exactly once
 /// (7919 is prime to 576, so `k -> 7919 k mod 576` is a permutation), in a scrambled
 /// assignment; further structures get them again, in other assignments.
 pub fn spread_combos(all: &[Combo], tree: usize, per_tree: usize) -> Vec<Combo> {
