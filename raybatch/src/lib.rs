@@ -43,6 +43,7 @@ pub mod hit;
 pub mod mesh;
 mod parallel;
 pub mod permuted;
+mod prefetch;
 pub mod query;
 #[cfg(test)]
 mod test_support;
@@ -52,7 +53,7 @@ pub mod workspace;
 pub mod zbt;
 
 pub use accel::{Accel, Footprint, RayStream};
-pub use batch::{BatchOptions, BatchOrdering, PartitionKernel};
+pub use batch::{BatchOptions, BatchOrdering, Interleave, PartitionKernel};
 pub use bvh::{AabbTree, BuildError, BuildOptions, Bvh, ChildOrdering, QuantizedAabbTree};
 pub use catalog::{AccelKind, AnyAccel};
 pub use geom::{Aabb, Kernel, Ray, RayError};

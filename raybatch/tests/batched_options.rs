@@ -20,10 +20,10 @@ use common::meshes::{icosphere, icosphere_all_duplicated, icosphere_with_duplica
 use common::oracles::bits;
 use common::rays::{every_nth, hard_rays};
 use common::zoo::all_structures;
-use raybatch::{BatchError, BatchOrdering, Kernel, PartitionKernel, Ray};
+use raybatch::{BatchError, BatchOrdering, Interleave, Kernel, PartitionKernel, Ray};
 
-/// Every structure with every one of the 576 combinations of kernel, batch ordering, partition
-/// kernel, `single_ray_below`, `max_chunk` and threads, on a sample of the hard rays of an
+/// Every structure with every one of the 1152 combinations of kernel, batch ordering, partition
+/// kernel, `single_ray_below`, `max_chunk`, threads and interleaving, on a sample of the hard rays of an
 /// icosphere with duplicate triangles.
 #[test]
 fn every_option_combination_on_every_tree() {
@@ -37,8 +37,7 @@ fn every_option_combination_on_every_tree() {
 
 /// All the hard rays (aimed at every vertex and edge, axis-parallel with signed zeros, windows,
 /// segments, invalid rays) on a plain icosphere and two with duplicate triangles, every
-/// structure: six of the 576 combinations per structure (108 different ones over the 18
-/// structures of two kinds), plus one with the default `min_chunk` (4096) and `min_batch` (32).
+/// structure: six of the 1152 combinations per structure (different ones for each structure), plus one with the default `min_chunk` (4096) and `min_batch` (32).
 #[test]
 fn hard_rays_on_icospheres() {
     for (name, mesh) in [
@@ -138,6 +137,7 @@ fn length_mismatch_is_an_error() {
                 min_chunk: 1,
                 min_batch,
                 threads,
+                interleave: Interleave::Auto,
             });
         }
     }

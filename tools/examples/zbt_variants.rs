@@ -4,7 +4,7 @@
 //! every variant's answers are checked against the AABB tree's (same triangle through the
 //! permutation, same `t`).
 //!
-//! `cargo run --release -p raybatch-tools --example zbt_variants [-- bunny|terrain|city [RAYS]]`
+//! `cargo run --release -p raybatch-tools --example zbt_variants [-- bunny|terrain|city|FILE.obj [RAYS]]`
 
 use std::time::Instant;
 
@@ -21,7 +21,12 @@ fn main() {
         None | Some("bunny") => scenes::bunny(),
         Some("terrain") => scenes::terrain(scenes::BUILTIN_TERRAIN_CELLS),
         Some("city") => scenes::city(scenes::BUILTIN_CITY_BLOCKS),
-        Some(other) => panic!("unknown scene {other}: bunny, terrain or city"),
+        Some(path) if path.ends_with(".obj") => scenes::Scene {
+            name: "mesh",
+            mesh: raybatch::Mesh::load_obj(path).expect("a readable OBJ file"),
+            kind: scenes::SceneKind::Object,
+        },
+        Some(other) => panic!("unknown scene {other}: bunny, terrain, city or a .obj file"),
     };
     let count: usize = args
         .next()
@@ -68,7 +73,7 @@ fn main() {
                 }
             }
         }
-        for chunk_size in [16, 32, 64, 512, 4096] {
+        for chunk_size in [16, 24, 32, 64, 512, 4096] {
             let options = HybridOptions {
                 chunk_size,
                 ..HybridOptions::default()

@@ -18,5 +18,5 @@ pub mod options;
 pub mod partition;
 pub(crate) mod scratch;
 
-pub use options::{BatchOptions, BatchOrdering};
+pub use options::{BatchOptions, BatchOrdering, Interleave};
 pub use partition::PartitionKernel;

@@ -27,6 +27,35 @@ impl BatchOrdering {
     }
 }
 
+/// Whether a structure walks a stream's rays side by side, one loop turn each in turn (hiding
+/// one ray's cache misses behind the others' work), or shares each node among all the rays
+/// that reach it. Only the 4-wide tree has both engines; the others ignore it.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum Interleave {
+    /// The structure decides by its size: the 4-wide tree interleaves when its nodes, leaf
+    /// order and mesh do not fit a typical L2 cache, where waiting on memory dominates.
+    #[default]
+    Auto,
+    /// Always walk rays side by side.
+    Always,
+    /// Always share nodes among the rays that reach them.
+    Never,
+}
+
+impl Interleave {
+    /// Every choice.
+    pub const ALL: [Interleave; 3] = [Interleave::Auto, Interleave::Always, Interleave::Never];
+
+    /// Short name for tables and the command line.
+    pub fn name(self) -> &'static str {
+        match self {
+            Interleave::Auto => "auto",
+            Interleave::Always => "always",
+            Interleave::Never => "never",
+        }
+    }
+}
+
 /// Options of the batched queries. Every combination gives the same answers; they only change
 /// speed.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -52,6 +81,8 @@ pub struct BatchOptions {
     /// Implementation of the box test over many rays ([`PartitionKernel::detect`] by
     /// default); one the CPU lacks is replaced by the portable one.
     pub partition: PartitionKernel,
+    /// Rays side by side or nodes shared ([`Interleave::Auto`] by default).
+    pub interleave: Interleave,
 }
 
 impl Default for BatchOptions {
@@ -65,6 +96,7 @@ impl Default for BatchOptions {
             max_chunk: 1 << 20,
             single_ray_below: 8,
             partition: PartitionKernel::detect(),
+            interleave: Interleave::Auto,
         }
     }
 }
@@ -105,6 +137,12 @@ impl BatchOptions {
         self.single_ray_below = rays;
         self
     }
+    /// With [`BatchOptions::interleave`].
+    pub fn with_interleave(mut self, interleave: Interleave) -> Self {
+        self.interleave = interleave;
+        self
+    }
+
     /// With [`BatchOptions::partition`].
     pub fn with_partition(mut self, partition: PartitionKernel) -> Self {
         self.partition = partition;

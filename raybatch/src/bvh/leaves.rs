@@ -12,6 +12,7 @@ use glam::Vec3;
 
 use super::build::BuildOptions;
 use crate::mesh::Mesh;
+use crate::prefetch::prefetch;
 
 /// A tree's leaf triangles (see the module docs).
 #[derive(Clone, Debug)]
@@ -56,6 +57,33 @@ impl LeafTriangles {
             Some(corners) => (id, *corners),
             None => (id, self.mesh.triangle(id)),
         }
+    }
+
+    /// Prefetches the next link of the chain of dependent reads behind slots `slots` (slot ->
+    /// id -> vertex indices -> corners): at `stage` 0 the ids are read (the slot order is
+    /// small and mostly cached) and the vertex indices prefetched, at stage 1 the corners.
+    /// Returns true once the corners are on their way (after stage 0 with the corner copy),
+    /// so that a caller that takes turns between rays ([`crate::wide::interleaved`]) can issue
+    /// one link per turn and find the whole chain in cache when it reads the triangles.
+    #[inline(always)]
+    pub(crate) fn prefetch(&self, slots: std::ops::Range<u32>, stage: u8) -> bool {
+        let (first, end) = (slots.start as usize, slots.end as usize);
+        if let Some(corners) = self.corners.get(first..end) {
+            corners.iter().for_each(prefetch);
+            return true;
+        }
+        let (triangles, vertices) = (self.mesh.triangles(), self.mesh.vertices());
+        for &id in &self.order[first..end] {
+            let indices = &triangles[id as usize];
+            if stage == 0 {
+                prefetch(indices);
+            } else {
+                indices
+                    .iter()
+                    .for_each(|&i| prefetch(&vertices[i as usize]));
+            }
+        }
+        stage > 0
     }
 
     /// Bytes added to the mesh: the slot order and the corner copy.

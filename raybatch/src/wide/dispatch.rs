@@ -3,7 +3,8 @@
 //! register copies; `wide::tests` compares the two copies.
 
 use super::WideTree;
-use super::single;
+use super::{interleaved, single};
+use crate::accel::RayStream;
 use crate::geom::{PreparedRay, TriangleTest};
 use crate::hit::Visitor;
 use crate::traverse::avx2::{self, Loop};
@@ -45,4 +46,40 @@ pub(crate) fn trace<K: TriangleTest, V: Visitor>(
         kernel: std::marker::PhantomData,
     };
     avx2::run(one, avx2)
+}
+
+/// A stream through [`interleaved::trace_stream`], as a [`Loop`].
+struct Interleaved<'a, 's, K, V> {
+    tree: &'a WideTree,
+    stream: &'a mut RayStream<'s>,
+    stacks: &'a mut [Vec<(u32, f32)>; interleaved::LANES],
+    visitor: &'a mut V,
+    kernel: std::marker::PhantomData<K>,
+}
+
+impl<K: TriangleTest, V: Visitor> Loop for Interleaved<'_, '_, K, V> {
+    type Output = ();
+    #[inline(always)]
+    fn run(self) {
+        interleaved::trace_stream::<K, V>(self.tree, self.stream, self.stacks, self.visitor)
+    }
+}
+
+/// [`interleaved::trace_stream`], in the AVX2 copy if `avx2` and the CPU has it.
+#[inline]
+pub(crate) fn trace_interleaved<K: TriangleTest, V: Visitor>(
+    avx2: bool,
+    tree: &WideTree,
+    stream: &mut RayStream<'_>,
+    stacks: &mut [Vec<(u32, f32)>; interleaved::LANES],
+    visitor: &mut V,
+) {
+    let task = Interleaved::<K, V> {
+        tree,
+        stream,
+        stacks,
+        visitor,
+        kernel: std::marker::PhantomData,
+    };
+    avx2::run(task, avx2)
 }

@@ -8,6 +8,7 @@ use super::node::WideRay;
 use crate::bvh::nodes::leaf_word;
 use crate::geom::{PreparedRay, TriangleTest};
 use crate::hit::Visitor;
+use crate::prefetch::prefetch;
 use crate::traverse::single::test_triangles;
 
 /// Traces `ray` (number `id`) through the whole tree; returns the final range end.
@@ -43,32 +44,65 @@ pub(crate) fn trace_from<K: TriangleTest, V: Visitor>(
     stack.clear();
     stack.reserve(3 * tree.depth + 1);
     let mut item = start;
-    loop {
-        if leaf_word::is_leaf(item) {
-            let (first, count) = leaf_word::unpack(item);
-            let triangles = (first..first + count).map(|slot| tree.triangle(slot));
-            if test_triangles::<K, V>(ray, id, triangles, tmax, visitor) {
-                return;
-            }
-        } else {
-            let node = &tree.nodes[item as usize];
-            let (mask, entries) = wide_ray.hits(node, *tmax);
-            if mask != 0 {
-                item = nearest_pushing_others(mask, entries.to_array(), &node.child, stack);
-                continue;
-            }
+    while let Some(next) = step::<K, V>(tree, (ray, &wide_ray, id), item, tmax, stack, visitor) {
+        item = next;
+    }
+}
+
+/// One turn of the loop: tests `item` (a node's four boxes, or a leaf's triangles), then
+/// returns the next item: the nearest child entered, else the nearest pending child still in
+/// front of the best hit; `None` when the ray is done. The interleaved engine
+/// ([`super::interleaved`]) takes turns between several rays with it.
+#[inline(always)]
+pub(crate) fn step<K: TriangleTest, V: Visitor>(
+    tree: &WideTree,
+    (ray, wide_ray, id): (&PreparedRay, &WideRay, u32),
+    item: u32,
+    tmax: &mut f32,
+    stack: &mut Vec<(u32, f32)>,
+    visitor: &mut V,
+) -> Option<u32> {
+    if leaf_word::is_leaf(item) {
+        let (first, count) = leaf_word::unpack(item);
+        let triangles = (first..first + count).map(|slot| tree.triangle(slot));
+        if test_triangles::<K, V>(ray, id, triangles, tmax, visitor) {
+            return None;
         }
-        // Pop the next pending child that is still in front of the best hit.
-        loop {
-            let Some((pending, entry)) = stack.pop() else {
-                return;
-            };
-            if entry <= *tmax {
-                item = pending;
-                break;
+    } else {
+        let node = &tree.nodes[item as usize];
+        let (mask, entries) = wide_ray.hits(node, *tmax);
+        if mask != 0 {
+            let pushed = stack.len();
+            let nearest = nearest_pushing_others(mask, entries.to_array(), &node.child, stack);
+            // The pushed children are visited later, if at all: fetch their nodes meanwhile.
+            for &(word, _) in &stack[pushed..] {
+                if !leaf_word::is_leaf(word) {
+                    prefetch_node(tree, word);
+                }
             }
+            return Some(nearest);
         }
     }
+    pop_in_front(stack, *tmax)
+}
+
+/// Prefetches both cache lines of node `index`.
+#[inline(always)]
+pub(crate) fn prefetch_node(tree: &WideTree, index: u32) {
+    let node = &tree.nodes[index as usize];
+    prefetch(node);
+    prefetch(&node.bounds[4]);
+}
+
+/// Pops pending children until one lies in front of the best hit (`<=`, for the tie rule).
+#[inline(always)]
+fn pop_in_front(stack: &mut Vec<(u32, f32)>, tmax: f32) -> Option<u32> {
+    while let Some((pending, entry)) = stack.pop() {
+        if entry <= tmax {
+            return Some(pending);
+        }
+    }
+    None
 }
 
 /// The child word of the nearest hit child; the other hit children are pushed, farthest

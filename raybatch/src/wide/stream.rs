@@ -71,6 +71,7 @@ fn trace_block<K: TriangleTest, V: Visitor>(
         ids,
         masks,
         pending,
+        ..
     } = scratch;
     let first = range.start;
     rays.clear();

@@ -5,7 +5,9 @@
 use std::sync::{Mutex, OnceLock};
 
 use proptest::prelude::*;
-use raybatch::{AnyAccel, BatchOptions, BatchOrdering, Hit, Kernel, PartitionKernel, Ray};
+use raybatch::{
+    AnyAccel, BatchOptions, BatchOrdering, Hit, Interleave, Kernel, PartitionKernel, Ray,
+};
 use rayon::{ThreadPool, ThreadPoolBuilder};
 
 use super::oracles::{HitBits, bits, opt_bits};
@@ -32,6 +34,8 @@ pub const THREADS: [Threads; 4] = [
 pub const PARTITIONS: [PartitionKernel; 3] = PartitionKernel::ALL;
 pub const SINGLE_RAY_BELOW: [usize; 3] = [0, 8, 1000];
 pub const MAX_CHUNKS: [usize; 4] = [1, 7, 64, usize::MAX];
+/// The forced choices: `Auto` is one of them for each structure.
+pub const INTERLEAVES: [Interleave; 2] = [Interleave::Always, Interleave::Never];
 
 /// Rayon pools of 1, 2 and 3 threads, built once for the whole binary.
 pub fn pool(threads: usize) -> &'static ThreadPool {
@@ -54,6 +58,7 @@ pub struct Combo {
     pub min_chunk: usize,
     pub min_batch: usize,
     pub threads: Threads,
+    pub interleave: Interleave,
 }
 
 impl Combo {
@@ -67,6 +72,7 @@ impl Combo {
             .with_min_chunk(self.min_chunk)
             .with_min_batch(self.min_batch)
             .with_parallel(self.threads != Threads::Sequential)
+            .with_interleave(self.interleave)
     }
 
     /// Runs `f` where this combination says (test thread or a pool).
@@ -82,7 +88,7 @@ impl Combo {
 }
 
 /// Every combination of kernel, batch ordering, partition kernel, `single_ray_below`,
-/// `max_chunk` and threads (576), with the given `min_chunk` and `min_batch`.
+/// `max_chunk`, threads and interleaving (1152), with the given `min_chunk` and `min_batch`.
 pub fn all_combos(min_chunk: usize, min_batch: usize) -> Vec<Combo> {
     let mut out = Vec::new();
     for kernel in Kernel::ALL {
@@ -91,29 +97,32 @@ pub fn all_combos(min_chunk: usize, min_batch: usize) -> Vec<Combo> {
                 for single_ray_below in SINGLE_RAY_BELOW {
                     for max_chunk in MAX_CHUNKS {
                         for threads in THREADS {
-                            out.push(Combo {
-                                kernel,
-                                ordering,
-                                partition,
-                                single_ray_below,
-                                max_chunk,
-                                min_chunk,
-                                min_batch,
-                                threads,
-                            });
+                            for interleave in INTERLEAVES {
+                                out.push(Combo {
+                                    kernel,
+                                    ordering,
+                                    partition,
+                                    single_ray_below,
+                                    max_chunk,
+                                    min_chunk,
+                                    min_batch,
+                                    threads,
+                                    interleave,
+                                });
+                            }
                         }
                     }
                 }
             }
         }
     }
-    assert_eq!(out.len(), 576);
+    assert_eq!(out.len(), 1152);
     out
 }
 
 /// The `per_tree` combinations structure number `tree` of the zoo gets: with `per_tree = 32`,
-/// the zoo's first 18 structures together get each of the 576 combinations exactly once
-/// (7919 is prime to 576, so `k -> 7919 k mod 576` is a permutation), in a scrambled
+/// the zoo's first 36 structures together get each of the 1152 combinations exactly once
+/// (7919 is prime to 1152, so `k -> 7919 k mod 1152` is a permutation), in a scrambled
 /// assignment; further structures get them again, in other assignments.
 pub fn spread_combos(all: &[Combo], tree: usize, per_tree: usize) -> Vec<Combo> {
     (0..per_tree)
@@ -131,6 +140,7 @@ pub fn combo_strategy() -> impl Strategy<Value = Combo> {
         prop_oneof![3 => Just(1usize), 1 => Just(4096usize)],
         prop_oneof![4 => Just(0usize), 1 => Just(1usize), 1 => Just(32usize)],
         prop::sample::select(THREADS.to_vec()),
+        prop::sample::select(INTERLEAVES.to_vec()),
     )
         .prop_map(
             |(
@@ -142,6 +152,7 @@ pub fn combo_strategy() -> impl Strategy<Value = Combo> {
                 min_chunk,
                 min_batch,
                 threads,
+                interleave,
             )| Combo {
                 kernel,
                 ordering,
@@ -151,6 +162,7 @@ pub fn combo_strategy() -> impl Strategy<Value = Combo> {
                 min_chunk,
                 min_batch,
                 threads,
+                interleave,
             },
         )
 }

@@ -11,7 +11,7 @@ use std::path::PathBuf;
 use std::str::FromStr;
 
 use raybatch::bvh::build::MAX_LEAF_SIZE;
-use raybatch::{AccelKind, Kernel};
+use raybatch::{AccelKind, Interleave, Kernel};
 use raybatch_tools::scenes::RaySet;
 
 use crate::bench::SCENE_NAMES;
@@ -29,7 +29,7 @@ Usage:
   raybatch query --mesh MESH.obj --rays RAYS.bin --kind closest|any --out HITS.bin
                  [--tree {trees}] [--kernel watertight|moller-trumbore]
                  [--leaf N] [--batched] [--threads N] [--passes N] [--batch-size N]
-                 [--leaf-corners]
+                 [--leaf-corners] [--interleave auto|always|never]
   raybatch rays --mesh MESH.obj --set SET --count N --out RAYS.bin [--seed S]
   raybatch --help
 
@@ -69,6 +69,9 @@ prints one JSON line of statistics on stderr.
                     all in one call), e.g. 4096 for a game frame's line-of-sight work
   --leaf-corners    keep a copy of each triangle's corners in leaf order (36 more bytes per
                     triangle, fewer dependent loads; the same answers)
+  --interleave WHEN with --batched, whether the 4-wide tree walks rays side by side,
+                    hiding cache misses (always), shares each node among the rays that
+                    reach it (never), or picks by its size (auto, the default)
 
 rays: writes a ray file in the format `query` reads: the ray sets of `bench`, aimed at a mesh
 treated as one object, so that measurements can be repeated on the same rays.
@@ -95,7 +98,7 @@ pub fn query_usage() -> String {
         "usage: raybatch query --mesh MESH.obj --rays RAYS.bin \
 --kind closest|any --out HITS.bin [--tree {}] \
 [--kernel watertight|moller-trumbore] [--leaf N] [--batched] [--threads N] \
-[--passes N] [--batch-size N] [--leaf-corners]",
+[--passes N] [--batch-size N] [--leaf-corners] [--interleave auto|always|never]",
         tree_names().join("|")
     )
 }
@@ -187,6 +190,8 @@ pub struct QueryArgs {
     pub batch_size: Option<usize>,
     /// Build with [`raybatch::BuildOptions::leaf_corners`].
     pub leaf_corners: bool,
+    /// [`raybatch::BatchOptions::interleave`].
+    pub interleave: Interleave,
 }
 
 /// Parses the arguments after the program name.
@@ -263,7 +268,7 @@ fn ray_set(text: &str) -> Result<RaySet, CliError> {
 fn parse_query(cursor: &mut Cursor) -> Result<QueryArgs, CliError> {
     let (mut mesh, mut rays, mut kind, mut out) = (None, None, None, None);
     let (mut tree, mut kernel, mut leaf, mut batched, mut threads) = (None, None, None, None, None);
-    let (mut passes, mut batch_size, mut leaf_corners) = (None, None, None);
+    let (mut passes, mut batch_size, mut leaf_corners, mut interleave) = (None, None, None, None);
     while let Some(flag) = cursor.next_flag()? {
         match flag.as_str() {
             "--mesh" => set_once(&mut mesh, &flag, cursor.path(&flag)?)?,
@@ -278,6 +283,11 @@ fn parse_query(cursor: &mut Cursor) -> Result<QueryArgs, CliError> {
             "--passes" => set_once(&mut passes, &flag, cursor.positive(&flag)?)?,
             "--batch-size" => set_once(&mut batch_size, &flag, cursor.positive(&flag)?)?,
             "--leaf-corners" => set_once(&mut leaf_corners, &flag, true)?,
+            "--interleave" => set_once(
+                &mut interleave,
+                &flag,
+                interleave_named(&cursor.text(&flag)?)?,
+            )?,
             _ => return Err(unknown_flag(&flag)),
         }
     }
@@ -294,7 +304,21 @@ fn parse_query(cursor: &mut Cursor) -> Result<QueryArgs, CliError> {
         passes,
         batch_size,
         leaf_corners: leaf_corners.unwrap_or(false),
+        interleave: interleave.unwrap_or_default(),
     })
+}
+
+fn interleave_named(text: &str) -> Result<Interleave, CliError> {
+    Interleave::ALL
+        .into_iter()
+        .find(|i| i.name() == text)
+        .ok_or_else(|| {
+            let names: Vec<&str> = Interleave::ALL.iter().map(|i| i.name()).collect();
+            CliError::usage(format!(
+                "unknown --interleave '{text}' (expected {})",
+                one_of(&names)
+            ))
+        })
 }
 
 /// Walks the arguments, handing out flags and their values.

@@ -113,7 +113,7 @@ fn query_for(args: &QueryArgs) -> Query {
     if let Some(n) = args.batch_size {
         query = query.with_batch_size(n);
     }
-    query
+    query.with_interleave(args.interleave)
 }
 
 fn report(args: &QueryArgs, triangles: usize, answers: &Answers) -> JsonLine {

@@ -16,7 +16,8 @@
 //! queries on the calling thread and batched ones in rayon's default pool.
 
 use raybatch::{
-    AnyAccel, BatchError, BatchOptions, BatchOrdering, Hit, Kernel, PartitionKernel, Ray,
+    AnyAccel, BatchError, BatchOptions, BatchOrdering, Hit, Interleave, Kernel, PartitionKernel,
+    Ray,
 };
 use rayon::prelude::*;
 use rayon::{ThreadPool, ThreadPoolBuildError, ThreadPoolBuilder};
@@ -84,6 +85,8 @@ pub struct Query {
     pub threads: Option<usize>,
     /// Rays per call of the batched engine (`None`: all rays in one call).
     pub batch_size: Option<usize>,
+    /// Whether the batched engine walks rays side by side ([`BatchOptions::interleave`]).
+    pub interleave: Interleave,
 }
 
 impl Query {
@@ -95,6 +98,7 @@ impl Query {
             engine,
             threads: None,
             batch_size: None,
+            interleave: Interleave::Auto,
         }
     }
 
@@ -104,6 +108,11 @@ impl Query {
             batch_size: Some(batch_size.max(1)),
             ..self
         }
+    }
+
+    /// The same query with [`BatchOptions::interleave`] set to `interleave`.
+    pub fn with_interleave(self, interleave: Interleave) -> Self {
+        Self { interleave, ..self }
     }
 
     /// Rays per call of the batched engine for a set of `n` rays.
@@ -140,7 +149,8 @@ impl Query {
     fn batch_options(&self) -> BatchOptions {
         let options = BatchOptions::default()
             .with_kernel(self.kernel)
-            .with_parallel(self.parallel());
+            .with_parallel(self.parallel())
+            .with_interleave(self.interleave);
         match self.engine {
             Engine::PerRay => options,
             Engine::Batched {

@@ -1,0 +1,148 @@
+//! Several rays walked side by side through the 4-wide tree, one loop turn each in turn: the
+//! batched engine of [`super::WideTree`].
+//!
+//! On a mesh whose tree does not fit the L2 cache, the one-ray loop spends most of its time
+//! waiting: each node read depends on the previous node's answer, and a leaf's triangles are a
+//! chain of three dependent reads (slot -> id -> vertex indices -> corners), so nothing overlaps
+//! the misses. Here [`LANES`] rays each keep their own loop state (the next item, a stack,
+//! their range end) and take turns. After a turn a ray prefetches what its next turn reads (the
+//! next node's two cache lines, or the next link of the leaf's chain, one link per turn), and
+//! by the time its turn comes again the other rays' turns have hidden the latency.
+//!
+//! A turn is the one-ray loop's own step ([`super::single::step`]), so each ray visits the same
+//! nodes in the same order, with the same kernels and the same range ends, as it would alone:
+//! answers are those of the one-ray loop, bit for bit. Prefetching never changes a value.
+
+use super::WideTree;
+use super::node::WideRay;
+use super::single::{prefetch_node, step};
+use crate::accel::RayStream;
+use crate::bvh::nodes::leaf_word;
+use crate::geom::{PreparedRay, TriangleTest};
+use crate::hit::Visitor;
+
+/// Rays walked side by side: enough turns between two turns of one ray to cover a miss to
+/// memory (a turn is some 100 instructions), few enough that their states stay in L1.
+pub(crate) const LANES: usize = 8;
+
+/// One ray's loop state.
+struct Walker {
+    ray: PreparedRay,
+    wide: WideRay,
+    /// Index of the ray in the stream.
+    index: usize,
+    id: u32,
+    tmax: f32,
+    /// The next node or leaf to visit.
+    item: u32,
+    /// For a leaf item: links of its triangles' read chain prefetched so far.
+    stage: u8,
+}
+
+/// Runs every ray of `stream` through the tree, [`LANES`] at a time; `stacks` is scratch.
+#[inline(always)]
+pub(crate) fn trace_stream<K: TriangleTest, V: Visitor>(
+    tree: &WideTree,
+    stream: &mut RayStream<'_>,
+    stacks: &mut [Vec<(u32, f32)>; LANES],
+    visitor: &mut V,
+) {
+    if tree.is_empty() {
+        return;
+    }
+    let mut walkers: [Option<Walker>; LANES] = [const { None }; LANES];
+    let mut next = 0;
+    loop {
+        let mut busy = false;
+        for (walker, stack) in walkers.iter_mut().zip(stacks.iter_mut()) {
+            if walker.is_none() {
+                *walker = start(tree, stream, &mut next, stack);
+            }
+            let Some(w) = walker else {
+                continue;
+            };
+            busy = true;
+            if !turn::<K, V>(tree, w, stack, visitor) {
+                stream.set_tmax(w.index, w.tmax);
+                *walker = None;
+            }
+        }
+        if !busy {
+            return;
+        }
+    }
+}
+
+/// A walker for the next ray of the stream (from `*next` on) that enters the root's box, or
+/// `None` when no ray is left. Rays that miss the root keep their range end.
+#[inline(never)]
+fn start(
+    tree: &WideTree,
+    stream: &RayStream<'_>,
+    next: &mut usize,
+    stack: &mut Vec<(u32, f32)>,
+) -> Option<Walker> {
+    while *next < stream.len() {
+        let index = *next;
+        *next += 1;
+        let ray = stream.ray(index);
+        if tree.root_bounds.hit_by(&ray, ray.tmax) {
+            stack.clear();
+            stack.reserve(3 * tree.depth + 1);
+            return Some(Walker {
+                wide: WideRay::new(&ray),
+                index,
+                id: stream.id(index),
+                tmax: ray.tmax,
+                item: tree.root,
+                stage: 0,
+                ray,
+            });
+        }
+    }
+    None
+}
+
+/// One turn of walker `w`: either one more link of its leaf's read chain is prefetched, or
+/// its item is visited and the next item prefetched. Returns false when the ray is done.
+#[inline(always)]
+fn turn<K: TriangleTest, V: Visitor>(
+    tree: &WideTree,
+    w: &mut Walker,
+    stack: &mut Vec<(u32, f32)>,
+    visitor: &mut V,
+) -> bool {
+    if leaf_word::is_leaf(w.item) && w.stage < LEAF_READY {
+        w.stage = prefetch_leaf(tree, w.item, w.stage);
+        return true;
+    }
+    let ray = (&w.ray, &w.wide, w.id);
+    match step::<K, V>(tree, ray, w.item, &mut w.tmax, stack, visitor) {
+        Some(item) => {
+            w.item = item;
+            w.stage = 0;
+            if leaf_word::is_leaf(item) {
+                w.stage = prefetch_leaf(tree, item, 0);
+            } else {
+                prefetch_node(tree, item);
+            }
+            true
+        }
+        None => false,
+    }
+}
+
+/// A leaf's stage once its whole read chain is prefetched.
+const LEAF_READY: u8 = 2;
+
+/// Prefetches link `stage` of the read chain of leaf `word`; returns the next stage
+/// ([`LEAF_READY`] when the corners are on their way).
+#[inline(always)]
+fn prefetch_leaf(tree: &WideTree, word: u32, stage: u8) -> u8 {
+    let (first, count) = leaf_word::unpack(word);
+    if tree.triangles.prefetch(first..first + count, stage) {
+        LEAF_READY
+    } else {
+        stage + 1
+    }
+}
