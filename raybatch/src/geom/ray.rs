@@ -109,14 +109,10 @@ impl Ray {
 
 /// Replaces subnormal components (and -0) by +0 or -0 of the same sign: `1 / x` must not overflow.
 pub(crate) fn flush_subnormals(v: Vec3) -> Vec3 {
-    let flush = |x: f32| {
-        if x.abs() < f32::MIN_POSITIVE {
-            0.0f32.copysign(x)
-        } else {
-            x
-        }
-    };
-    Vec3::new(flush(v.x), flush(v.y), flush(v.z))
+    // Lane-wise: a NaN compares false and is kept, as the scalar rule would keep it.
+    let v = Vec3A::from(v);
+    let tiny = v.abs().cmplt(Vec3A::splat(f32::MIN_POSITIVE));
+    Vec3::from(Vec3A::select(tiny, Vec3A::ZERO.copysign(v), v))
 }
 
 /// Index (0..8) of a direction's octant: bit 0 set if `x` is negative, bit 1 for `y`, bit 2 for
@@ -157,19 +153,16 @@ impl PreparedRay {
     /// The same checks as [`Ray::validate`], written to flush the direction once.
     #[inline]
     pub fn new(ray: &Ray) -> Option<Self> {
-        if !ray.origin.is_finite() || !ray.dir.is_finite() {
-            return None;
-        }
+        let finite =
+            Vec3A::from(ray.origin).is_finite_mask() & Vec3A::from(ray.dir).is_finite_mask();
         let dir = flush_subnormals(ray.dir);
         let range_ok = ray.tmin >= 0.0 && ray.tmin <= ray.tmax && ray.tmin.is_finite();
-        if dir == Vec3::ZERO || !range_ok {
+        if !finite.all() || dir == Vec3::ZERO || !range_ok {
             return None;
         }
         Some(Self::from_flushed(ray, dir))
     }
 
-    /// [`PreparedRay::new`] for a ray the caller has already validated (the batched engine
-    /// validates while grouping rays, and does not repeat it).
     pub(crate) fn from_valid(ray: &Ray) -> Self {
         debug_assert!(ray.is_valid());
         Self::from_flushed(ray, flush_subnormals(ray.dir))
@@ -179,23 +172,18 @@ impl PreparedRay {
     #[inline]
     fn from_flushed(ray: &Ray, dir: Vec3) -> Self {
         let abs = dir.abs();
-        let kz = if abs.x >= abs.y && abs.x >= abs.z {
-            0
-        } else if abs.y >= abs.z {
-            1
-        } else {
-            2
-        };
+        // Selects rather than branches: the dominant axis of random rays is unpredictable.
+        let x_wins = (abs.x >= abs.y) & (abs.x >= abs.z);
+        let y_wins = abs.y >= abs.z;
+        let kz = if x_wins { 0 } else { 1 + !y_wins as usize };
         // Woop et al. swap kx and ky when dir[kz] < 0 to keep the projected winding; since both
         // windings are accepted, that swap only negates U, V, W, det and T exactly, leaving
         // t, u, v bit-identical, so it is skipped and the axes depend on kz alone.
         // (kx, ky, kz) = (kz + 1, kz + 2, kz) mod 3.
-        let (x, y, z) = match kz {
-            0 => (dir.y, dir.z, dir.x),
-            1 => (dir.z, dir.x, dir.y),
-            _ => (dir.x, dir.y, dir.z),
-        };
-        let shear = Vec3::new(x / z, y / z, 1.0 / z);
+        let d = dir.to_array();
+        let (x, y, z) = (d[(kz + 1) % 3], d[(kz + 2) % 3], d[kz]);
+        // One vector division: the same IEEE quotients as three scalar ones.
+        let shear = Vec3::from(Vec3A::new(x, y, 1.0) / Vec3A::splat(z));
         // One vector division; the same IEEE quotients as three scalar ones.
         let inv_dir = Vec3::from(Vec3A::ONE / Vec3A::from(dir));
         Self {
@@ -214,6 +202,56 @@ impl PreparedRay {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The lane-wise flush and the branch-free dominant axis agree with their scalar
+    /// definitions on every special value, ties included (the kernel's axes depend on them).
+    #[test]
+    fn flush_and_dominant_axis_match_their_scalar_definitions() {
+        let flush = |x: f32| {
+            if x.abs() < f32::MIN_POSITIVE {
+                0.0f32.copysign(x)
+            } else {
+                x
+            }
+        };
+        let special = [
+            0.0,
+            -0.0,
+            1e-40,
+            -1e-40,
+            f32::MIN_POSITIVE,
+            -f32::MIN_POSITIVE,
+            1.0,
+            -1.0,
+            2.0,
+            f32::NAN,
+            f32::INFINITY,
+            f32::NEG_INFINITY,
+        ];
+        for &x in &special {
+            for &y in &special {
+                for &z in &special {
+                    let v = Vec3::new(x, y, z);
+                    let got = flush_subnormals(v).to_array().map(f32::to_bits);
+                    let want = [flush(x), flush(y), flush(z)].map(f32::to_bits);
+                    assert_eq!(got, want, "{v:?}");
+                    let Some(ray) = PreparedRay::new(&Ray::new(Vec3::ZERO, v)) else {
+                        continue;
+                    };
+                    let a = ray.dir.abs();
+                    let kz = if a.x >= a.y && a.x >= a.z {
+                        0
+                    } else if a.y >= a.z {
+                        1
+                    } else {
+                        2
+                    };
+                    assert_eq!(ray.kz, kz, "{v:?}");
+                    assert_eq!(ray.octant_mask, 1 << octant(ray.dir), "{v:?}");
+                }
+            }
+        }
+    }
 
     #[test]
     fn validation_names_the_problem() {
