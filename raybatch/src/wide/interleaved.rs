@@ -25,8 +25,9 @@ use crate::hit::Visitor;
 /// memory (a turn is some 100 instructions), few enough that their states stay in L1.
 pub(crate) const LANES: usize = 8;
 
-/// One ray's loop state.
+/// One ray's loop state; `active` is false for a free slot (its other fields are stale).
 struct Walker {
+    active: bool,
     ray: PreparedRay,
     wide: WideRay,
     /// Index of the ray in the stream.
@@ -47,24 +48,33 @@ pub(crate) fn trace_stream<K: TriangleTest, V: Visitor>(
     stacks: &mut [Vec<(u32, f32)>; LANES],
     visitor: &mut V,
 ) {
-    if tree.is_empty() {
+    if tree.is_empty() || stream.is_empty() {
         return;
     }
-    let mut walkers: [Option<Walker>; LANES] = [const { None }; LANES];
+    // Free walkers, reused in place for ray after ray (the ray is a placeholder).
+    let ray = stream.ray(0);
+    let free = Walker {
+        active: false,
+        wide: WideRay::new(&ray),
+        ray,
+        index: 0,
+        id: 0,
+        tmax: 0.0,
+        item: 0,
+        stage: 0,
+    };
+    let mut walkers: [Walker; LANES] = std::array::from_fn(|_| Walker { ..free });
     let mut next = 0;
     loop {
         let mut busy = false;
-        for (walker, stack) in walkers.iter_mut().zip(stacks.iter_mut()) {
-            if walker.is_none() {
-                *walker = start(tree, stream, &mut next, stack);
-            }
-            let Some(w) = walker else {
+        for (w, stack) in walkers.iter_mut().zip(stacks.iter_mut()) {
+            if !w.active && !start(tree, stream, &mut next, w, stack) {
                 continue;
-            };
+            }
             busy = true;
             if !turn::<K, V>(tree, w, stack, visitor) {
                 stream.set_tmax(w.index, w.tmax);
-                *walker = None;
+                w.active = false;
             }
         }
         if !busy {
@@ -73,15 +83,16 @@ pub(crate) fn trace_stream<K: TriangleTest, V: Visitor>(
     }
 }
 
-/// A walker for the next ray of the stream (from `*next` on) that enters the root's box, or
-/// `None` when no ray is left. Rays that miss the root keep their range end.
+/// Starts `w` on the next ray of the stream (from `*next` on) that enters the root's box;
+/// false when no ray is left. Rays that miss the root keep their range end.
 #[inline(never)]
 fn start(
     tree: &WideTree,
     stream: &RayStream<'_>,
     next: &mut usize,
+    w: &mut Walker,
     stack: &mut Vec<(u32, f32)>,
-) -> Option<Walker> {
+) -> bool {
     while *next < stream.len() {
         let index = *next;
         *next += 1;
@@ -89,18 +100,18 @@ fn start(
         if tree.root_bounds.hit_by(&ray, ray.tmax) {
             stack.clear();
             stack.reserve(3 * tree.depth + 1);
-            return Some(Walker {
-                wide: WideRay::new(&ray),
-                index,
-                id: stream.id(index),
-                tmax: ray.tmax,
-                item: tree.root,
-                stage: 0,
-                ray,
-            });
+            w.active = true;
+            w.wide = WideRay::new(&ray);
+            w.index = index;
+            w.id = stream.id(index);
+            w.tmax = ray.tmax;
+            w.item = tree.root;
+            w.stage = 0;
+            w.ray = ray;
+            return true;
         }
     }
-    None
+    false
 }
 
 /// One turn of walker `w`: either one more link of its leaf's read chain is prefetched, or
