@@ -27,7 +27,8 @@
 //!   BVH collapsed from it), [`zbt`] (the zero-byte tree and its hybrid, no memory beside the
 //!   mesh);
 //! - engines: [`traverse`] (how a BVH walks one ray or a stream), [`batch`] (batch machinery);
-//! - adapters: [`permuted`] (a reordering structure answering in the original ids);
+//! - adapters: [`permuted`] (a reordering structure answering in the original ids), [`scene`]
+//!   (many meshes placed as instances, answering in world space);
 //! - what users call: [`query`] (per-ray and batched queries, brute force), [`catalog`] (every
 //!   structure by name, behind one dynamic type).
 
@@ -44,6 +45,7 @@ pub mod mesh;
 mod parallel;
 pub mod permuted;
 pub mod query;
+pub mod scene;
 #[cfg(test)]
 mod test_support;
 pub mod traverse;
@@ -60,6 +62,7 @@ pub use glam;
 pub use hit::{Hit, Visitor};
 pub use mesh::{Mesh, MeshError};
 pub use query::{BatchError, BatchQueries, RayQueries};
+pub use scene::{InstanceDesc, MeshTree, Rigid, Scene, SceneError, SceneHit};
 pub use wide::WideTree;
 pub use workspace::{StructureId, Workspace};
 pub use zbt::{HybridTree, ZeroByteTree};
