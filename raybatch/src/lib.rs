@@ -30,7 +30,8 @@
 //! - adapters: [`permuted`] (a reordering structure answering in the original ids), [`scene`]
 //!   (many meshes placed as instances, answering in world space);
 //! - what users call: [`query`] (per-ray and batched queries, brute force), [`catalog`] (every
-//!   structure by name, behind one dynamic type).
+//!   structure by name, behind one dynamic type), [`users`] (a line-of-sight request queue,
+//!   audio occlusion).
 
 #![warn(missing_docs)]
 #![deny(unsafe_code)]
@@ -49,6 +50,7 @@ pub mod scene;
 #[cfg(test)]
 mod test_support;
 pub mod traverse;
+pub mod users;
 pub mod wide;
 pub mod workspace;
 pub mod zbt;
