@@ -18,7 +18,7 @@
 
 use glam::{Mat3, Quat, Vec3};
 
-use crate::geom::Ray;
+use crate::geom::{PreparedRay, Ray};
 use crate::geom::ray::flush_subnormals;
 use crate::scene::error::SceneError;
 
@@ -110,6 +110,25 @@ impl Rigid {
             (offset, dir)
         };
         Ray::with_range(origin, dir, ray.tmin, ray.tmax)
+    }
+
+    /// [`Rigid::ray_to_mesh`] of the valid ray `ray` with range end `tmax`, prepared: `None`
+    /// if the mesh-space ray is invalid. Without a rotation only the origin changes, so the
+    /// world ray's constants are kept (the very values `PreparedRay::new` would compute from
+    /// the same direction): the fast path of translated instances, such as terrain tiles.
+    #[inline]
+    pub(crate) fn prepared_to_mesh(&self, ray: &PreparedRay, tmax: f32) -> Option<PreparedRay> {
+        if self.rotated {
+            let world = Ray::with_range(ray.origin, ray.dir, ray.tmin, tmax);
+            return PreparedRay::new(&self.ray_to_mesh(&world));
+        }
+        let origin = ray.origin - self.translation;
+        let range_ok = ray.tmin <= tmax;
+        (origin.is_finite() && range_ok).then_some(PreparedRay {
+            origin,
+            tmax,
+            ..*ray
+        })
     }
 
     /// A mesh-space point in the world (rounded; only used for boxes, which are padded).

@@ -16,7 +16,7 @@
 
 use crate::accel::{Accel, Footprint, RayStream};
 use crate::batch::lanes::Lanes;
-use crate::geom::{PreparedRay, Ray, TriangleTest};
+use crate::geom::{PreparedRay, TriangleTest};
 use crate::hit::{Hit, Visitor};
 use crate::scene::filter::SceneView;
 use crate::scene::instance::{ALL_LAYERS, Instance, grown, ray_pad};
@@ -64,12 +64,14 @@ fn second_first(node: &TopNode, octant_mask: u8) -> bool {
     octant_mask != 0 && (octant_mask.trailing_zeros() >> node.axis) & 1 == 1
 }
 
-/// One ray through the scene (see the module docs).
+/// One ray through the scene's top-level subtree under node `start` (the root for a per-ray
+/// query; a node a stream reached with few rays left, see [`trace_stream`]).
 fn trace_one<A: SceneMesh, K: TriangleTest, V: Visitor>(
     scene: &Scene<A>,
     mask: u32,
     ray: &PreparedRay,
     id: u32,
+    start: u32,
     scratch: &mut SceneScratch<A::Scratch>,
     visitor: &mut V,
 ) -> f32 {
@@ -81,7 +83,7 @@ fn trace_one<A: SceneMesh, K: TriangleTest, V: Visitor>(
     let pad = ray_pad(ray.origin);
     let mut stack = std::mem::take(&mut scratch.stack);
     stack.clear();
-    stack.push(0);
+    stack.push(start);
     while let Some(index) = stack.pop() {
         let node = &nodes[index as usize];
         // `tmax < tmin` once a visitor ended the ray (any hit).
@@ -121,8 +123,7 @@ fn trace_instance<A: SceneMesh, K: TriangleTest, V: Visitor>(
     scratch: &mut SceneScratch<A::Scratch>,
     visitor: &mut V,
 ) -> f32 {
-    let world = Ray::with_range(ray.origin, ray.dir, ray.tmin, tmax);
-    let Some(local) = PreparedRay::new(&instance.transform.ray_to_mesh(&world)) else {
+    let Some(local) = instance.transform.prepared_to_mesh(ray, tmax) else {
         return tmax;
     };
     let mut visitor = ToGlobal {
@@ -162,6 +163,17 @@ fn trace_stream<A: SceneMesh, K: TriangleTest, V: Visitor>(
         if active == 0 {
             continue;
         }
+        if active < stream.options().single_ray_below {
+            // Too few rays left for the stream's bookkeeping to pay: finish them one by one
+            // from this node, with the per-ray walk (same instances, same answers).
+            for i in 0..active {
+                let ray = stream.ray(i);
+                let id = stream.id(i);
+                let tmax = trace_one::<A, K, V>(scene, mask, &ray, id, index, scratch, visitor);
+                stream.set_tmax(i, tmax);
+            }
+            continue;
+        }
         if node.is_leaf() {
             for slot in node.first..node.first + node.count {
                 let instance = &scene.instances[scene.top.order[slot as usize] as usize];
@@ -199,8 +211,7 @@ fn stream_instance<A: SceneMesh, K: TriangleTest, V: Visitor>(
     outer.clear();
     for i in 0..active {
         let ray = stream.ray(i);
-        let world = Ray::with_range(ray.origin, ray.dir, ray.tmin, ray.tmax);
-        if let Some(local) = PreparedRay::new(&instance.transform.ray_to_mesh(&world)) {
+        if let Some(local) = instance.transform.prepared_to_mesh(&ray, ray.tmax) {
             lanes.set(outer.len(), &local, outer.len() as u32);
             outer.push((i as u32, stream.id(i)));
         }
@@ -233,7 +244,7 @@ impl<A: SceneMesh> Accel for Scene<A> {
         scratch: &mut Self::Scratch,
         visitor: &mut V,
     ) -> f32 {
-        trace_one::<A, K, V>(self, ALL_LAYERS, ray, id, scratch, visitor)
+        trace_one::<A, K, V>(self, ALL_LAYERS, ray, id, 0, scratch, visitor)
     }
 
     fn trace_stream<K: TriangleTest, V: Visitor>(
@@ -256,7 +267,7 @@ impl<A: SceneMesh> Accel for SceneView<'_, A> {
         scratch: &mut Self::Scratch,
         visitor: &mut V,
     ) -> f32 {
-        trace_one::<A, K, V>(self.scene, self.mask, ray, id, scratch, visitor)
+        trace_one::<A, K, V>(self.scene, self.mask, ray, id, 0, scratch, visitor)
     }
 
     fn trace_stream<K: TriangleTest, V: Visitor>(
