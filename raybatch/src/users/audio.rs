@@ -210,7 +210,7 @@ pub fn occlusion_batch<W: BatchQueries>(
         });
     }
     let options = BatchOptions::default().with_parallel(false).with_min_batch(0);
-    let part = segments.len().div_ceil(4 * rayon::current_num_threads()).max(64);
+    let part = segments.len().div_ceil(rayon::current_num_threads()).max(256);
     segments
         .par_chunks(part)
         .zip(out.par_chunks_mut(part))
