@@ -88,6 +88,13 @@ impl Rigid {
         Self::new(Quat::IDENTITY, translation)
     }
 
+    /// True for the identity (no rotation, translation `+0` on every axis): mesh space is
+    /// world space and `ray_to_mesh` returns every ray bit for bit (`x - (+0) = x`, even for
+    /// `x = -0`; a `-0` translation would turn a `-0` origin into `+0`, so it is excluded).
+    pub fn is_identity(&self) -> bool {
+        !self.rotated && self.translation.to_array().iter().all(|c| c.to_bits() == 0)
+    }
+
     /// The rotation (unit length).
     pub fn rotation(&self) -> Quat {
         self.rotation

@@ -201,6 +201,27 @@ fn stream_instance<A: SceneMesh, K: TriangleTest, V: Visitor>(
     scratch: &mut SceneScratch<A::Scratch>,
     visitor: &mut V,
 ) {
+    let mesh = &scene.meshes[instance.mesh()];
+    if instance.transform.is_identity() {
+        // Mesh space is world space: the stream's own rays go down the mesh's tree as they
+        // are (the tree only reorders them within the prefix, which keeps the set).
+        let (start, octant) = (stream.start, stream.octant_mask);
+        let mut local = RayStream::new(
+            stream.lanes,
+            start,
+            start + active,
+            octant,
+            stream.partitioner,
+            stream.options,
+        );
+        let mut visitor = ToGlobal {
+            first: instance.first_id,
+            outer: None,
+            inner: visitor,
+        };
+        mesh.trace_stream::<K::AnyAxis, _>(&mut local, &mut scratch.inner, &mut visitor);
+        return;
+    }
     let SceneScratch {
         lanes,
         outer,
@@ -227,7 +248,7 @@ fn stream_instance<A: SceneMesh, K: TriangleTest, V: Visitor>(
         outer: Some(outer),
         inner: visitor,
     };
-    scene.meshes[instance.mesh()].trace_stream::<K::AnyAxis, _>(&mut local, inner, &mut visitor);
+    mesh.trace_stream::<K::AnyAxis, _>(&mut local, inner, &mut visitor);
     for lane in 0..n {
         let (i, _) = outer[lanes.id(lane) as usize];
         stream.set_tmax(i as usize, lanes.tmax(lane));
