@@ -16,20 +16,29 @@ use raybatch::{AccelKind, Mesh, Ray, RayQueries};
 fn sphere_scene(rotation: Quat) -> (Mesh, raybatch::Scene) {
     let mesh = icosphere(2);
     let at = Rigid::new(rotation, Vec3::new(0.25, -0.5, 1.0)).unwrap();
-    let scene = build_scene(std::slice::from_ref(&mesh), &[AccelKind::Aabb], &[InstanceDesc::new(0, at)]);
+    let scene = build_scene(
+        std::slice::from_ref(&mesh),
+        &[AccelKind::Aabb],
+        &[InstanceDesc::new(0, at)],
+    );
     (mesh, scene)
 }
 
 #[test]
 fn a_line_through_vertices_and_edges_crosses_a_closed_sphere_twice() {
-    for rotation in [Quat::IDENTITY, Quat::from_rotation_y(0.3) * Quat::from_rotation_x(1.1)] {
+    for rotation in [
+        Quat::IDENTITY,
+        Quat::from_rotation_y(0.3) * Quat::from_rotation_x(1.1),
+    ] {
         let (mesh, scene) = sphere_scene(rotation);
         let materials = Materials::uniform(&scene, 10.0).unwrap();
         let at = scene.instances()[0].transform();
         let mut points: Vec<Vec3> = mesh.vertices().to_vec();
-        points.extend(edges(&mesh).iter().map(|&(a, b)| {
-            (mesh.vertices()[a as usize] + mesh.vertices()[b as usize]) * 0.5
-        }));
+        points.extend(
+            edges(&mesh)
+                .iter()
+                .map(|&(a, b)| (mesh.vertices()[a as usize] + mesh.vertices()[b as usize]) * 0.5),
+        );
         let (mut shared, mut total) = (0, 0);
         for p in points {
             let ray = Ray::segment(at.point_to_world(p * 3.0), at.point_to_world(p * -3.0));
@@ -39,9 +48,23 @@ fn a_line_through_vertices_and_edges_crosses_a_closed_sphere_twice() {
                 shared += 1;
             }
             let o = occlusion(&scene, &materials, &ray, u32::MAX);
-            assert_eq!(o, Occlusion { loss_db: 20.0, crossings: 2 }, "{p:?}: {} hits", hits.len());
+            assert_eq!(
+                o,
+                Occlusion {
+                    loss_db: 20.0,
+                    crossings: 2
+                },
+                "{p:?}: {} hits",
+                hits.len()
+            );
             let first = occlusion(&scene, &materials, &ray, 1);
-            assert_eq!(first, Occlusion { loss_db: 10.0, crossings: 1 });
+            assert_eq!(
+                first,
+                Occlusion {
+                    loss_db: 10.0,
+                    crossings: 1
+                }
+            );
         }
         // Many of these lines pass through shared edges and vertices (several hits per side).
         assert!(shared * 4 > total, "{shared} of {total}");
@@ -50,19 +73,40 @@ fn a_line_through_vertices_and_edges_crosses_a_closed_sphere_twice() {
 
 #[test]
 fn a_seam_between_two_instances_is_one_crossing() {
-    let half = tri_mesh(&[[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0], [1.0, 0.0, 1.0]], &[[0, 1, 2], [1, 3, 2]]);
-    let tiles = [Vec3::ZERO, Vec3::X].map(|t| InstanceDesc::new(0, Rigid::from_translation(t).unwrap()));
+    let half = tri_mesh(
+        &[
+            [0.0, 0.0, 0.0],
+            [1.0, 0.0, 0.0],
+            [0.0, 0.0, 1.0],
+            [1.0, 0.0, 1.0],
+        ],
+        &[[0, 1, 2], [1, 3, 2]],
+    );
+    let tiles =
+        [Vec3::ZERO, Vec3::X].map(|t| InstanceDesc::new(0, Rigid::from_translation(t).unwrap()));
     let scene = build_scene(std::slice::from_ref(&half), &[AccelKind::Bvh4], &tiles);
     let materials = Materials::new(&scene, vec![vec![3.0, 7.0]]).unwrap();
     // Straight down on the seam x = 1 (inside triangle 1 of the first tile and triangle 0 of
     // the second: shared edge across instances).
     let ray = Ray::segment(Vec3::new(1.0, 5.0, 0.5), Vec3::new(1.0, -5.0, 0.5));
     assert!(scene.all_hits(&ray).len() >= 2);
-    assert_eq!(occlusion(&scene, &materials, &ray, u32::MAX), Occlusion { loss_db: 7.0, crossings: 1 });
+    assert_eq!(
+        occlusion(&scene, &materials, &ray, u32::MAX),
+        Occlusion {
+            loss_db: 7.0,
+            crossings: 1
+        }
+    );
     // The diagonal of one tile: two triangles of one instance.
     let diag = Ray::segment(Vec3::new(0.5, 5.0, 0.5), Vec3::new(0.5, -5.0, 0.5));
     assert_eq!(scene.all_hits(&diag).len(), 2);
-    assert_eq!(occlusion(&scene, &materials, &diag, u32::MAX), Occlusion { loss_db: 7.0, crossings: 1 });
+    assert_eq!(
+        occlusion(&scene, &materials, &diag, u32::MAX),
+        Occlusion {
+            loss_db: 7.0,
+            crossings: 1
+        }
+    );
 }
 
 #[test]
@@ -71,7 +115,11 @@ fn batched_equals_per_ray() {
     let descs: Vec<InstanceDesc> = (0..20)
         .map(|i| {
             let r = Quat::from_rotation_z(i as f32);
-            let t = Vec3::new((i % 5) as f32 * 2.0 - 4.0, (i / 5) as f32 * 2.0 - 4.0, (i % 3) as f32);
+            let t = Vec3::new(
+                (i % 5) as f32 * 2.0 - 4.0,
+                (i / 5) as f32 * 2.0 - 4.0,
+                (i % 3) as f32,
+            );
             InstanceDesc::new(i % 2, Rigid::new(r, t).unwrap())
         })
         .collect();
@@ -79,11 +127,17 @@ fn batched_equals_per_ray() {
     let tables = meshes
         .iter()
         .enumerate()
-        .map(|(m, mesh)| (0..mesh.triangle_count()).map(|t| (t % 7 + m) as f32).collect())
+        .map(|(m, mesh)| {
+            (0..mesh.triangle_count())
+                .map(|t| (t % 7 + m) as f32)
+                .collect()
+        })
         .collect();
     let materials = Materials::new(&scene, tables).unwrap();
     let mut rng = seeded(21);
-    let rays: Vec<Ray> = (0..1500).map(|_| Ray::segment(in_cube(&mut rng, 7.0), in_cube(&mut rng, 7.0))).collect();
+    let rays: Vec<Ray> = (0..1500)
+        .map(|_| Ray::segment(in_cube(&mut rng, 7.0), in_cube(&mut rng, 7.0)))
+        .collect();
     for limit in [1, 3, u32::MAX] {
         let mut out = vec![Occlusion::default(); rays.len()];
         occlusion_batch(&scene, &materials, &rays, limit, &mut out).unwrap();
@@ -107,18 +161,34 @@ fn bad_tables_are_typed_errors() {
     let n = mesh.triangle_count();
     assert_eq!(
         Materials::new(&scene, vec![]).unwrap_err(),
-        AudioError::WrongTableCount { meshes: 1, tables: 0 }
+        AudioError::WrongTableCount {
+            meshes: 1,
+            tables: 0
+        }
     );
     assert_eq!(
         Materials::new(&scene, vec![vec![1.0; n - 1]]).unwrap_err(),
-        AudioError::TableTooShort { mesh: 0, triangles: n, entries: n - 1 }
+        AudioError::TableTooShort {
+            mesh: 0,
+            triangles: n,
+            entries: n - 1
+        }
     );
     let mut bad = vec![1.0; n];
     bad[5] = f32::NAN;
-    assert_eq!(Materials::new(&scene, vec![bad]).unwrap_err(), AudioError::BadLoss { mesh: 0, triangle: 5 });
+    assert_eq!(
+        Materials::new(&scene, vec![bad]).unwrap_err(),
+        AudioError::BadLoss {
+            mesh: 0,
+            triangle: 5
+        }
+    );
     assert_eq!(
         Materials::uniform(&scene, -1.0).unwrap_err(),
-        AudioError::BadLoss { mesh: 0, triangle: 0 }
+        AudioError::BadLoss {
+            mesh: 0,
+            triangle: 0
+        }
     );
     assert!(Materials::new(&scene, vec![vec![1.0; n + 4]]).is_ok());
 }

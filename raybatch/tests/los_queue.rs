@@ -47,7 +47,11 @@ fn requests_from_many_threads_get_the_per_ray_answers() {
         });
         assert_eq!(queue.len(), 3600);
         assert_eq!(queue.flush(&scene).unwrap(), 3600);
-        let mut indices: Vec<usize> = submitted.iter().flatten().map(|(t, _, _)| t.index()).collect();
+        let mut indices: Vec<usize> = submitted
+            .iter()
+            .flatten()
+            .map(|(t, _, _)| t.index())
+            .collect();
         indices.sort_unstable();
         assert_eq!(indices, (0..3600).collect::<Vec<_>>());
         let (mut clear, mut blocked) = (0, 0);
@@ -56,7 +60,10 @@ fn requests_from_many_threads_get_the_per_ray_answers() {
             assert_eq!(queue.visible(ticket), Ok(expected));
             if expected { clear += 1 } else { blocked += 1 }
         }
-        assert!(clear > 100 && blocked > 100, "{clear} clear, {blocked} blocked");
+        assert!(
+            clear > 100 && blocked > 100,
+            "{clear} clear, {blocked} blocked"
+        );
     }
 }
 
@@ -66,11 +73,16 @@ fn full_unflushed_and_stale_tickets_are_errors() {
     let mut queue = LosQueue::with_capacity(2);
     let a = queue.submit(Vec3::ZERO, Vec3::X).unwrap();
     queue.submit(Vec3::ZERO, Vec3::Y).unwrap();
-    assert_eq!(queue.submit(Vec3::ZERO, Vec3::Z), Err(QueueError::Full { capacity: 2 }));
+    assert_eq!(
+        queue.submit(Vec3::ZERO, Vec3::Z),
+        Err(QueueError::Full { capacity: 2 })
+    );
     assert_eq!(queue.visible(a), Err(QueueError::NotFlushed));
     assert_eq!(queue.flush(&scene), Ok(2));
     assert!(queue.visible(a).is_ok());
-    let b = queue.submit(Vec3::new(-9.0, 0.0, 0.0), Vec3::new(9.0, 0.0, 0.0)).unwrap();
+    let b = queue
+        .submit(Vec3::new(-9.0, 0.0, 0.0), Vec3::new(9.0, 0.0, 0.0))
+        .unwrap();
     assert_eq!(queue.visible(b), Err(QueueError::NotFlushed));
     assert_eq!(queue.flush(&scene), Ok(1));
     assert_eq!(queue.visible(a), Err(QueueError::Stale));

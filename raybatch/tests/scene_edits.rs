@@ -14,7 +14,9 @@ use common::rng::{RngExt, seeded};
 use common::scenes::{build_scene, scene_brute_force};
 use glam::{Quat, Vec3};
 use raybatch::scene::{InstanceDesc, MeshTree, Rigid, Scene, SceneError};
-use raybatch::{AccelKind, BatchOptions, BatchQueries, BuildOptions, Kernel, Mesh, MeshError, Ray, RayQueries};
+use raybatch::{
+    AccelKind, BatchOptions, BatchQueries, BuildOptions, Kernel, Mesh, MeshError, Ray, RayQueries,
+};
 
 /// Per-ray and batched closest hits and occlusion of `scene` equal the oracle's on `rays`.
 fn assert_matches(scene: &Scene, meshes: &[Mesh], descs: &[InstanceDesc], rays: &[Ray]) {
@@ -22,10 +24,16 @@ fn assert_matches(scene: &Scene, meshes: &[Mesh], descs: &[InstanceDesc], rays: 
     let mut hits = vec![None; rays.len()];
     scene.cast_rays_with(rays, &mut hits, &options).unwrap();
     let mut occluded = vec![false; rays.len()];
-    scene.occluded_batch_with(rays, &mut occluded, &options).unwrap();
+    scene
+        .occluded_batch_with(rays, &mut occluded, &options)
+        .unwrap();
     for (i, ray) in rays.iter().enumerate() {
         let r = scene_brute_force(meshes, descs, ray, Kernel::Watertight, u32::MAX);
-        assert_eq!(opt_bits(scene.cast_ray(ray)), opt_bits(r.closest), "{ray:?}");
+        assert_eq!(
+            opt_bits(scene.cast_ray(ray)),
+            opt_bits(r.closest),
+            "{ray:?}"
+        );
         assert_eq!(opt_bits(hits[i]), opt_bits(r.closest), "batched {ray:?}");
         assert_eq!(occluded[i], r.occluded, "{ray:?}");
         assert_eq!(all_bits(&scene.all_hits(ray)), all_bits(&r.all), "{ray:?}");
@@ -59,15 +67,24 @@ fn identity_instance_answers_as_the_bare_tree() {
         let tree = MeshTree::build(kind, mesh.clone(), &BuildOptions::default()).unwrap();
         let scene = Scene::new(vec![tree], &[InstanceDesc::new(0, Rigid::IDENTITY)]).unwrap();
         for ray in &rays {
-            assert_eq!(opt_bits(scene.cast_ray(ray)), opt_bits(bare.cast_ray(ray)), "{kind:?} {ray:?}");
+            assert_eq!(
+                opt_bits(scene.cast_ray(ray)),
+                opt_bits(bare.cast_ray(ray)),
+                "{kind:?} {ray:?}"
+            );
             assert_eq!(scene.occluded(ray), bare.occluded(ray));
-            assert_eq!(all_bits(&scene.all_hits(ray)), all_bits(&bare.all_hits(ray)));
+            assert_eq!(
+                all_bits(&scene.all_hits(ray)),
+                all_bits(&bare.all_hits(ray))
+            );
         }
         let options = BatchOptions::default().with_min_batch(0);
         let (mut a, mut b) = (vec![None; rays.len()], vec![None; rays.len()]);
         scene.cast_rays_with(&rays, &mut a, &options).unwrap();
         bare.cast_rays_with(&rays, &mut b, &options).unwrap();
-        let bits_of = |h: &[Option<raybatch::Hit>]| h.iter().map(|h| h.as_ref().map(bits)).collect::<Vec<_>>();
+        let bits_of = |h: &[Option<raybatch::Hit>]| {
+            h.iter().map(|h| h.as_ref().map(bits)).collect::<Vec<_>>()
+        };
         assert_eq!(bits_of(&a), bits_of(&b), "{kind:?} batched");
     }
 }
@@ -77,12 +94,20 @@ fn translated_instance_answers_as_the_tree_on_shifted_rays() {
     let mesh = Arc::new(icosphere(2));
     let shift = Vec3::new(4.0, -2.0, 8.0);
     let tree = MeshTree::build(AccelKind::Bvh4, mesh.clone(), &BuildOptions::default()).unwrap();
-    let bare = AccelKind::Bvh4.build(mesh.clone(), &BuildOptions::default()).unwrap();
+    let bare = AccelKind::Bvh4
+        .build(mesh.clone(), &BuildOptions::default())
+        .unwrap();
     let at = Rigid::from_translation(shift).unwrap();
     let scene = Scene::new(vec![tree], &[InstanceDesc::new(0, at)]).unwrap();
     for ray in incoherent(&mesh, 300, &mut seeded(11)) {
-        let world = Ray { origin: ray.origin + shift, ..ray };
-        let local = Ray { origin: world.origin - shift, ..ray };
+        let world = Ray {
+            origin: ray.origin + shift,
+            ..ray
+        };
+        let local = Ray {
+            origin: world.origin - shift,
+            ..ray
+        };
         let hit = scene.cast_ray(&world);
         assert_eq!(opt_bits(hit), opt_bits(bare.cast_ray(&local)));
         if let Some(h) = hit {
@@ -112,13 +137,21 @@ fn moving_instances_keeps_answers_exact() {
     let rays = sphere_rays(400, 12);
     let mut rng = seeded(13);
     let random_move = |rng: &mut common::rng::StdRng| {
-        let r = Quat::from_euler(glam::EulerRot::XYZ, rng.random(), rng.random(), rng.random());
+        let r = Quat::from_euler(
+            glam::EulerRot::XYZ,
+            rng.random(),
+            rng.random(),
+            rng.random(),
+        );
         let t = Vec3::new(rng.random(), rng.random(), rng.random()) * 8.0 - 4.0;
         Rigid::new(r, t).unwrap()
     };
     scene.set_transform(3, random_move(&mut rng)).unwrap();
     assert_matches(&scene, &meshes, &descs_of(&scene), &rays);
-    let moves: Vec<(usize, Rigid)> = (0..12).step_by(2).map(|i| (i, random_move(&mut rng))).collect();
+    let moves: Vec<(usize, Rigid)> = (0..12)
+        .step_by(2)
+        .map(|i| (i, random_move(&mut rng)))
+        .collect();
     scene.set_transforms(&moves).unwrap();
     assert_matches(&scene, &meshes, &descs_of(&scene), &rays);
     scene.rebuild_top();
@@ -200,7 +233,10 @@ fn bad_input_is_a_typed_error_and_changes_nothing() {
     let far = Rigid::from_translation(Vec3::splat(100.0)).unwrap();
     assert_eq!(
         scene.set_transform(12, far),
-        Err(SceneError::NoSuchInstance { instance: 12, instances: 12 })
+        Err(SceneError::NoSuchInstance {
+            instance: 12,
+            instances: 12
+        })
     );
     // One bad index in a batch of moves: nothing moves.
     assert!(scene.set_transforms(&[(0, far), (99, far)]).is_err());
@@ -209,7 +245,10 @@ fn bad_input_is_a_typed_error_and_changes_nothing() {
     let verts = meshes[0].vertices().to_vec();
     assert_eq!(
         scene.deform_mesh(0, verts[1..].to_vec()),
-        Err(SceneError::VertexCountChanged { expected: verts.len(), given: verts.len() - 1 })
+        Err(SceneError::VertexCountChanged {
+            expected: verts.len(),
+            given: verts.len() - 1
+        })
     );
     let mut nan = verts.clone();
     nan[3].y = f32::NAN;
@@ -221,7 +260,10 @@ fn bad_input_is_a_typed_error_and_changes_nothing() {
         scene.deform_mesh(1, meshes[1].vertices().to_vec()),
         Err(SceneError::NotRefittable { kind: "zbt" })
     );
-    assert!(matches!(scene.deform_mesh(2, verts.clone()), Err(SceneError::NoSuchMesh { .. })));
+    assert!(matches!(
+        scene.deform_mesh(2, verts.clone()),
+        Err(SceneError::NoSuchMesh { .. })
+    ));
     assert_matches(&scene, &meshes, &descs, &rays);
 }
 
@@ -239,6 +281,8 @@ fn a_triangle_degenerate_at_build_refuses_a_refit_that_gives_it_an_area() {
         scene.deform_mesh(0, lifted),
         Err(SceneError::NewlyValidTriangle { triangle: 1 })
     );
-    let hit = scene.cast_ray(&Ray::new(Vec3::new(0.2, 0.2, -1.0), Vec3::Z)).unwrap();
+    let hit = scene
+        .cast_ray(&Ray::new(Vec3::new(0.2, 0.2, -1.0), Vec3::Z))
+        .unwrap();
     assert_eq!(hit.triangle, 0);
 }

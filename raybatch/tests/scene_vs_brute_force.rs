@@ -34,7 +34,10 @@ fn compare<A: BatchQueries>(
         for (ray, r) in rays.iter().zip(&refs) {
             let got = accel.cast_ray_with(ray, kernel);
             if opt_bits(got) != opt_bits(r.closest) {
-                return Err(format!("{kernel:?} closest {got:?}, expected {:?} for {ray:?}", r.closest));
+                return Err(format!(
+                    "{kernel:?} closest {got:?}, expected {:?} for {ray:?}",
+                    r.closest
+                ));
             }
             if accel.occluded_with(ray, kernel) != r.occluded {
                 return Err(format!("{kernel:?} occluded differs for {ray:?}"));
@@ -45,7 +48,9 @@ fn compare<A: BatchQueries>(
             let mut expected = all_bits(&r.all);
             expected.sort_unstable();
             if each != expected {
-                return Err(format!("{kernel:?} all hits {each:?}, expected {expected:?} for {ray:?}"));
+                return Err(format!(
+                    "{kernel:?} all hits {each:?}, expected {expected:?} for {ray:?}"
+                ));
             }
         }
         let options = BatchOptions::default()
@@ -55,9 +60,13 @@ fn compare<A: BatchQueries>(
         let mut hits = vec![None; rays.len()];
         accel.cast_rays_with(rays, &mut hits, &options).unwrap();
         let mut occluded = vec![false; rays.len()];
-        accel.occluded_batch_with(rays, &mut occluded, &options).unwrap();
+        accel
+            .occluded_batch_with(rays, &mut occluded, &options)
+            .unwrap();
         let all = Mutex::new(Vec::<(usize, HitBits)>::new());
-        accel.for_each_hit_batch_with(rays, &options, |i, h| all.lock().unwrap().push((i, bits(&h))));
+        accel.for_each_hit_batch_with(rays, &options, |i, h| {
+            all.lock().unwrap().push((i, bits(&h)))
+        });
         let mut all = all.into_inner().unwrap();
         all.sort_unstable();
         let mut expected_all: Vec<(usize, HitBits)> = refs

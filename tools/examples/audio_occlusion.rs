@@ -20,11 +20,18 @@ use raybatch_tools::scenes::{RaySet, SceneKind, city, generate};
 const SOURCES: usize = 64;
 const LISTENERS: usize = 8;
 /// Wall materials (name, loss in dB).
-const WALLS: [(&str, f32); 4] = [("glass", 6.0), ("wood", 12.0), ("brick", 25.0), ("concrete", 40.0)];
+const WALLS: [(&str, f32); 4] = [
+    ("glass", 6.0),
+    ("wood", 12.0),
+    ("brick", 25.0),
+    ("concrete", 40.0),
+];
 const GROUND_AND_ROOFS_DB: f32 = 60.0;
 
 fn main() {
-    let frames: usize = std::env::args().nth(1).map_or(100, |a| a.parse().expect("a number"));
+    let frames: usize = std::env::args()
+        .nth(1)
+        .map_or(100, |a| a.parse().expect("a number"));
     let town = city(24).mesh;
     let world = split_into_tiles("town", &town, 16);
     let scene = world.build(AccelKind::Aabb).expect("the town builds");
@@ -47,7 +54,11 @@ fn main() {
             .map(|i| start + Vec3::new(frame as f32 * 1.5, 0.0, i as f32 * 2.0))
             .collect();
         segments.clear();
-        segments.extend(listeners.iter().flat_map(|&l| sources.iter().map(move |&s| Ray::segment(s, l))));
+        segments.extend(
+            listeners
+                .iter()
+                .flat_map(|&l| sources.iter().map(move |&s| Ray::segment(s, l))),
+        );
 
         let t = Instant::now();
         for (out, ray) in per_ray.iter_mut().zip(&segments) {
@@ -55,7 +66,8 @@ fn main() {
         }
         t_ray += t.elapsed().as_secs_f64();
         let t = Instant::now();
-        occlusion_batch(&scene, &materials, &segments, u32::MAX, &mut batched).expect("lengths match");
+        occlusion_batch(&scene, &materials, &segments, u32::MAX, &mut batched)
+            .expect("lengths match");
         t_batch += t.elapsed().as_secs_f64();
         assert_eq!(per_ray, batched, "per-ray and batched occlusion differ");
 
@@ -85,7 +97,8 @@ fn wall_losses(mesh: &Mesh) -> Vec<f32> {
                 GROUND_AND_ROOFS_DB
             } else {
                 let centre = (a + b + c) / 3.0;
-                let block = (centre.x / 100.0).floor() as i64 * 31 + (centre.z / 100.0).floor() as i64 * 17;
+                let block =
+                    (centre.x / 100.0).floor() as i64 * 31 + (centre.z / 100.0).floor() as i64 * 17;
                 WALLS[block.rem_euclid(WALLS.len() as i64) as usize].1
             }
         })

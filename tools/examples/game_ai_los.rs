@@ -30,7 +30,9 @@ const TARGETS: usize = 32;
 const VEHICLES: usize = 500;
 
 fn main() {
-    let mut args = std::env::args().skip(1).map(|a| a.parse::<usize>().expect("a number"));
+    let mut args = std::env::args()
+        .skip(1)
+        .map(|a| a.parse::<usize>().expect("a number"));
     let agents = args.next().unwrap_or(1000);
     let frames = args.next().unwrap_or(100);
     let town = city(24).mesh;
@@ -54,11 +56,22 @@ fn main() {
     let requests = agents * TARGETS;
     let mut queue = LosQueue::with_capacity(requests);
     let mut segments = Vec::with_capacity(requests);
-    let (mut per_ray, mut batched, mut queued) = (vec![false; requests], vec![false; requests], vec![false; requests]);
-    let mut tickets: [Vec<Ticket>; 2] = [Vec::with_capacity(requests), Vec::with_capacity(requests)];
+    let (mut per_ray, mut batched, mut queued) = (
+        vec![false; requests],
+        vec![false; requests],
+        vec![false; requests],
+    );
+    let mut tickets: [Vec<Ticket>; 2] =
+        [Vec::with_capacity(requests), Vec::with_capacity(requests)];
     let (mut t_ray, mut t_batch, mut t_queue, mut blocked) = (0.0, 0.0, 0.0, 0usize);
     for _ in 0..frames {
-        move_world(&mut scene, &mut positions, &mut vehicles, first_vehicle, &mut rng);
+        move_world(
+            &mut scene,
+            &mut positions,
+            &mut vehicles,
+            first_vehicle,
+            &mut rng,
+        );
         segments.clear();
         segments.extend((0..requests).map(|k| {
             let (i, j) = (k / TARGETS, k % TARGETS);
@@ -74,7 +87,9 @@ fn main() {
         t_ray += t.elapsed().as_secs_f64();
 
         let t = Instant::now();
-        scene.occluded_batch(&segments, &mut batched).expect("lengths match");
+        scene
+            .occluded_batch(&segments, &mut batched)
+            .expect("lengths match");
         t_batch += t.elapsed().as_secs_f64();
 
         let t = Instant::now();
@@ -99,9 +114,23 @@ fn main() {
         100.0 * blocked as f64 / (requests * frames) as f64,
         rayon::current_num_threads()
     );
-    println!("  per ray  {:7.2} ms/frame  {:6.2} M/s", ms(t_ray), rate(t_ray));
-    println!("  batched  {:7.2} ms/frame  {:6.2} M/s  ({:.2}x per ray)", ms(t_batch), rate(t_batch), t_ray / t_batch);
-    println!("  queue    {:7.2} ms/frame  {:6.2} M/s  ({:.2}x batched)", ms(t_queue), rate(t_queue), t_batch / t_queue);
+    println!(
+        "  per ray  {:7.2} ms/frame  {:6.2} M/s",
+        ms(t_ray),
+        rate(t_ray)
+    );
+    println!(
+        "  batched  {:7.2} ms/frame  {:6.2} M/s  ({:.2}x per ray)",
+        ms(t_batch),
+        rate(t_batch),
+        t_ray / t_batch
+    );
+    println!(
+        "  queue    {:7.2} ms/frame  {:6.2} M/s  ({:.2}x batched)",
+        ms(t_queue),
+        rate(t_queue),
+        t_batch / t_queue
+    );
     println!("  all three gave the same answer on every sightline of every frame");
 }
 
@@ -114,10 +143,12 @@ fn town_world(town: &raybatch::Mesh) -> (World, usize) {
     let cars = props(VEHICLES, size, 13);
     let base = world.meshes.len();
     world.meshes.extend(cars.meshes);
-    world.instances.extend(cars.instances.iter().map(|i| InstanceDesc {
-        mesh: base + i.mesh,
-        ..*i
-    }));
+    world
+        .instances
+        .extend(cars.instances.iter().map(|i| InstanceDesc {
+            mesh: base + i.mesh,
+            ..*i
+        }));
     (world, first_vehicle)
 }
 

@@ -20,7 +20,9 @@ use raybatch_tools::scenes::instanced::{WorldRays, props, world_rays, yawed};
 use raybatch_tools::scenes::rng::SplitMix64;
 
 fn main() {
-    let mut args = std::env::args().skip(1).map(|a| a.parse::<usize>().expect("a number"));
+    let mut args = std::env::args()
+        .skip(1)
+        .map(|a| a.parse::<usize>().expect("a number"));
     let count = args.next().unwrap_or(10_000);
     let frames = args.next().unwrap_or(100);
     let world = props(count, 1000.0, 7);
@@ -28,7 +30,12 @@ fn main() {
     let mut rebuilt = world.build(AccelKind::Aabb).expect("scene");
     let mut rng = SplitMix64::new(8);
     let mut poses: Vec<(f32, Vec3)> = (0..count)
-        .map(|i| (rng.range_f32(0.0, 6.283), refitted.instances()[i].transform().translation()))
+        .map(|i| {
+            (
+                rng.range_f32(0.0, std::f32::consts::TAU),
+                refitted.instances()[i].transform().translation(),
+            )
+        })
         .collect();
     let (mut refit_time, mut rebuild_time) = (0.0, 0.0);
     for _ in 0..frames {
@@ -43,13 +50,21 @@ fn main() {
     }
     let per_frame = |s: f64| s / frames as f64 * 1e3;
     println!("{count} instances moving, {frames} frames:");
-    println!("  set_transforms + refit          {:8.3} ms/frame", per_frame(refit_time));
-    println!("  set_transforms + rebuild_top    {:8.3} ms/frame", per_frame(rebuild_time));
+    println!(
+        "  set_transforms + refit          {:8.3} ms/frame",
+        per_frame(refit_time)
+    );
+    println!(
+        "  set_transforms + rebuild_top    {:8.3} ms/frame",
+        per_frame(rebuild_time)
+    );
 
     let rays = world_rays(WorldRays::Long, &world.bounds(), 200_000, 9);
     let q_refit = query_time(&refitted, &rays);
     let q_rebuilt = query_time(&rebuilt, &rays);
-    println!("  200k long rays after the frames: refitted tree {q_refit:.1} ms, rebuilt tree {q_rebuilt:.1} ms");
+    println!(
+        "  200k long rays after the frames: refitted tree {q_refit:.1} ms, rebuilt tree {q_rebuilt:.1} ms"
+    );
 
     let t = Instant::now();
     let few = count / 100;
@@ -58,7 +73,9 @@ fn main() {
             let (yaw, at) = &mut poses[i * 100];
             *yaw += 0.05;
             *at += Vec3::new(0.3, 0.0, 0.1);
-            refitted.set_transform(i * 100, yawed(*yaw, *at)).expect("valid move");
+            refitted
+                .set_transform(i * 100, yawed(*yaw, *at))
+                .expect("valid move");
         }
     }
     println!(

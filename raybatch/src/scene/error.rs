@@ -79,7 +79,10 @@ impl std::fmt::Display for SceneError {
                 "instance {instance} does not exist (the scene has {instances})"
             ),
             SceneError::TooManyTriangles { count } => {
-                write!(f, "{count} triangles over all instances: too many for 32-bit ids")
+                write!(
+                    f,
+                    "{count} triangles over all instances: too many for 32-bit ids"
+                )
             }
             SceneError::Build(e) => write!(f, "building a mesh's tree: {e}"),
             SceneError::Mesh(e) => write!(f, "deformed mesh: {e}"),

@@ -179,7 +179,8 @@ impl Accel for MeshTree {
         scratch: &mut MeshTreeScratch,
         visitor: &mut V,
     ) {
-        with_tree!(self, scratch, |t, s| t.trace_stream::<K, V>(stream, s, visitor))
+        with_tree!(self, scratch, |t, s| t
+            .trace_stream::<K, V>(stream, s, visitor))
     }
 }
 

@@ -18,8 +18,8 @@
 
 use glam::{Mat3, Quat, Vec3};
 
-use crate::geom::{PreparedRay, Ray};
 use crate::geom::ray::flush_subnormals;
+use crate::geom::{PreparedRay, Ray};
 use crate::scene::error::SceneError;
 
 /// How far a rotation's quaternion may be from unit length (squared norm within `1 +- this`)
@@ -159,7 +159,12 @@ mod tests {
 
     #[test]
     fn identity_keeps_rays_bit_for_bit() {
-        let ray = Ray::with_range(Vec3::new(-0.0, 1.5, 3.0), Vec3::new(-0.0, 0.0, -1.0), 0.5, 9.0);
+        let ray = Ray::with_range(
+            Vec3::new(-0.0, 1.5, 3.0),
+            Vec3::new(-0.0, 0.0, -1.0),
+            0.5,
+            9.0,
+        );
         let r = Rigid::IDENTITY.ray_to_mesh(&ray);
         assert_eq!(r.origin.x.to_bits(), (-0.0f32).to_bits());
         assert_eq!(r.dir.x.to_bits(), (-0.0f32).to_bits());

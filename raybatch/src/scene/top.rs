@@ -130,7 +130,10 @@ impl TopTree {
             let slots = node.first as usize..(node.first + node.count) as usize;
             cover(&self.order[slots], boxes, masks)
         } else {
-            let [a, b] = [self.nodes[node.first as usize], self.nodes[node.first as usize + 1]];
+            let [a, b] = [
+                self.nodes[node.first as usize],
+                self.nodes[node.first as usize + 1],
+            ];
             (a.bounds.union(b.bounds), a.mask | b.mask)
         };
         let node = &mut self.nodes[index];
@@ -165,7 +168,7 @@ fn split(items: &mut [u32], boxes: &[Aabb], centres: &[Vec3]) -> (u8, usize) {
         .iter()
         .fold(Aabb::EMPTY, |b, &i| b.grow(centres[i as usize]));
     let mut best: Option<(f32, usize, usize)> = None;
-    for axis in 0..3 {
+    for axis in [0usize, 1, 2] {
         let (lo, hi) = (span.min[axis], span.max[axis]);
         if hi <= lo {
             continue;
@@ -254,7 +257,10 @@ mod tests {
             assert!(seen.iter().all(|&s| s));
         };
         check(&tree, &boxes);
-        let moved: Vec<Aabb> = boxes.iter().map(|b| unit_at(b.min.x * 3.0 - 50.0)).collect();
+        let moved: Vec<Aabb> = boxes
+            .iter()
+            .map(|b| unit_at(b.min.x * 3.0 - 50.0))
+            .collect();
         tree.refit(&moved, &masks);
         check(&tree, &moved);
         let mut one = moved.clone();
@@ -267,6 +273,11 @@ mod tests {
     fn coincident_centres_still_split() {
         let boxes = vec![unit_at(0.0); 9];
         let tree = TopTree::build(&boxes, &[1; 9]);
-        assert!(tree.nodes.iter().filter(|n| n.is_leaf()).all(|n| n.count as usize <= MAX_LEAF));
+        assert!(
+            tree.nodes
+                .iter()
+                .filter(|n| n.is_leaf())
+                .all(|n| n.count as usize <= MAX_LEAF)
+        );
     }
 }

@@ -86,8 +86,8 @@ fn trace_one<A: SceneMesh, K: TriangleTest, V: Visitor>(
     stack.push(start);
     while let Some(index) = stack.pop() {
         let node = &nodes[index as usize];
-        // `tmax < tmin` once a visitor ended the ray (any hit).
-        if !(tmax >= ray.tmin) {
+        // `tmax < tmin` once a visitor ended the ray (any hit sets `-inf`).
+        if tmax < ray.tmin {
             break;
         }
         if !seen(node.mask, mask) || !grown(&node.bounds, pad).hit_by(ray, tmax) {
@@ -97,7 +97,8 @@ fn trace_one<A: SceneMesh, K: TriangleTest, V: Visitor>(
             for slot in node.first..node.first + node.count {
                 let instance = &scene.instances[scene.top.order[slot as usize] as usize];
                 if seen(instance.mask, mask) {
-                    tmax = trace_instance::<A, K, V>(scene, instance, ray, tmax, id, scratch, visitor);
+                    tmax =
+                        trace_instance::<A, K, V>(scene, instance, ray, tmax, id, scratch, visitor);
                 }
             }
         } else {
@@ -131,7 +132,12 @@ fn trace_instance<A: SceneMesh, K: TriangleTest, V: Visitor>(
         outer: None,
         inner: visitor,
     };
-    scene.meshes[instance.mesh()].trace::<K::AnyAxis, _>(&local, id, &mut scratch.inner, &mut visitor)
+    scene.meshes[instance.mesh()].trace::<K::AnyAxis, _>(
+        &local,
+        id,
+        &mut scratch.inner,
+        &mut visitor,
+    )
 }
 
 /// A stream through the scene (see the module docs).
@@ -183,7 +189,11 @@ fn trace_stream<A: SceneMesh, K: TriangleTest, V: Visitor>(
             }
         } else {
             let (a, b) = (node.first, node.first + 1);
-            let (near, far) = if second_first(node, octant_mask) { (b, a) } else { (a, b) };
+            let (near, far) = if second_first(node, octant_mask) {
+                (b, a)
+            } else {
+                (a, b)
+            };
             pending.push((far, active as u32));
             pending.push((near, active as u32));
         }

@@ -99,9 +99,9 @@ impl<A: SceneMesh> Scene<A> {
 
     /// Triangles over all instances (one more than the largest global id).
     pub fn triangle_count(&self) -> usize {
-        self.instances
-            .last()
-            .map_or(0, |i| i.first_id as usize + self.meshes[i.mesh()].triangle_count())
+        self.instances.last().map_or(0, |i| {
+            i.first_id as usize + self.meshes[i.mesh()].triangle_count()
+        })
     }
 
     /// The instance and mesh triangle of global triangle id `id`, if it exists.

@@ -116,7 +116,10 @@ impl Materials {
                     entries: table.len(),
                 });
             }
-            if let Some(triangle) = table[..triangles].iter().position(|l| !(*l >= 0.0 && l.is_finite())) {
+            if let Some(triangle) = table[..triangles]
+                .iter()
+                .position(|l| !(*l >= 0.0 && l.is_finite()))
+            {
                 return Err(AudioError::BadLoss { mesh, triangle });
             }
         }
@@ -168,7 +171,12 @@ pub struct Occlusion {
 
 /// Groups `hits` (sorted by `t` then id; `hit(x)` reads one) into crossings and adds up the
 /// first `limit`.
-fn accumulate<T>(hits: &[T], hit: impl Fn(&T) -> &Hit, materials: &Materials, limit: u32) -> Occlusion {
+fn accumulate<T>(
+    hits: &[T],
+    hit: impl Fn(&T) -> &Hit,
+    materials: &Materials,
+    limit: u32,
+) -> Occlusion {
     let mut out = Occlusion::default();
     let mut i = 0;
     while i < hits.len() && out.crossings < limit {
@@ -188,7 +196,12 @@ fn accumulate<T>(hits: &[T], hit: impl Fn(&T) -> &Hit, materials: &Materials, li
 /// The occlusion of the segment from `source` to `listener` through `world` (a scene or a
 /// filtered view), counting at most `limit` crossings (`u32::MAX` for all; 1 for "the first
 /// wall"), one ray.
-pub fn occlusion<W: RayQueries>(world: &W, materials: &Materials, segment: &Ray, limit: u32) -> Occlusion {
+pub fn occlusion<W: RayQueries>(
+    world: &W,
+    materials: &Materials,
+    segment: &Ray,
+    limit: u32,
+) -> Occlusion {
     let hits = world.all_hits(segment);
     accumulate(&hits, |h| h, materials, limit)
 }
@@ -209,8 +222,13 @@ pub fn occlusion_batch<W: BatchQueries>(
             outputs: out.len(),
         });
     }
-    let options = BatchOptions::default().with_parallel(false).with_min_batch(0);
-    let part = segments.len().div_ceil(rayon::current_num_threads()).max(256);
+    let options = BatchOptions::default()
+        .with_parallel(false)
+        .with_min_batch(0);
+    let part = segments
+        .len()
+        .div_ceil(rayon::current_num_threads())
+        .max(256);
     segments
         .par_chunks(part)
         .zip(out.par_chunks_mut(part))

@@ -56,7 +56,10 @@ impl std::fmt::Display for QueueError {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         match self {
             QueueError::Full { capacity } => {
-                write!(f, "line-of-sight queue full ({capacity} requests this frame)")
+                write!(
+                    f,
+                    "line-of-sight queue full ({capacity} requests this frame)"
+                )
             }
             QueueError::NotFlushed => f.write_str("the ticket's frame has not been flushed"),
             QueueError::Stale => f.write_str("the ticket's answer was replaced by a later flush"),
@@ -145,7 +148,8 @@ impl LosQueue {
     pub fn flush<A: BatchQueries>(&mut self, world: &A) -> Result<usize, BatchError> {
         let count = self.len();
         self.rays.clear();
-        self.rays.resize(count, Ray::segment(Vec3::ZERO, Vec3::ZERO));
+        self.rays
+            .resize(count, Ray::segment(Vec3::ZERO, Vec3::ZERO));
         while let Some((index, ray)) = self.requests.pop() {
             self.rays[index as usize] = ray;
         }

@@ -57,8 +57,12 @@ pub fn build_scene(meshes: &[Mesh], kinds: &[AccelKind], instances: &[InstanceDe
         .iter()
         .enumerate()
         .map(|(i, m)| {
-            MeshTree::build(kinds[i % kinds.len()], Arc::new(m.clone()), &BuildOptions::default())
-                .unwrap()
+            MeshTree::build(
+                kinds[i % kinds.len()],
+                Arc::new(m.clone()),
+                &BuildOptions::default(),
+            )
+            .unwrap()
         })
         .collect();
     Scene::new(trees, instances).unwrap()

@@ -59,8 +59,12 @@ fn per_ray() -> Query {
 }
 
 fn batched() -> Query {
-    Query::new(QueryKind::Closest, Kernel::Watertight, Engine::batched(BatchOrdering::ByOctant))
-        .with_threads(1)
+    Query::new(
+        QueryKind::Closest,
+        Kernel::Watertight,
+        Engine::batched(BatchOrdering::ByOctant),
+    )
+    .with_threads(1)
 }
 
 fn speed_table() -> Table {
@@ -84,14 +88,23 @@ fn speed_table() -> Table {
 fn speed_rows(world: &World, rays: usize, table: &mut Table) {
     progress(&format!("instanced: building {} ...", world.name));
     let start = Instant::now();
-    let scene = world.build(AccelKind::DEFAULT).expect("the built-in worlds build");
+    let scene = world
+        .build(AccelKind::DEFAULT)
+        .expect("the built-in worlds build");
     let build_ms = start.elapsed().as_secs_f64() * 1e3;
     let bounds = world.bounds();
     let scene = AnyAccel::new(scene);
     for kind in WorldRays::ALL {
-        progress(&format!("instanced: {} {} rays ...", world.name, kind.name()));
+        progress(&format!(
+            "instanced: {} {} rays ...",
+            world.name,
+            kind.name()
+        ));
         let set = world_rays(kind, &bounds, rays, 5);
-        let (one, many) = (speed(&scene, per_ray(), &set), speed(&scene, batched(), &set));
+        let (one, many) = (
+            speed(&scene, per_ray(), &set),
+            speed(&scene, batched(), &set),
+        );
         table.push(vec![
             world.name.to_string(),
             thousands(world.instances.len()),
@@ -111,9 +124,12 @@ fn overhead(rays: usize) -> String {
     let city = scenes::city(scenes::BUILTIN_CITY_BLOCKS).mesh;
     let set = scenes::generate(RaySet::Incoherent, &city, SceneKind::City, rays, 6);
     let options = BuildOptions::default();
-    let bare = AccelKind::DEFAULT.build(city.clone(), &options).expect("the city builds");
+    let bare = AccelKind::DEFAULT
+        .build(city.clone(), &options)
+        .expect("the city builds");
     let tree = MeshTree::build(AccelKind::DEFAULT, city, &options).expect("the city builds");
-    let one = Scene::new(vec![tree], &[InstanceDesc::new(0, Rigid::IDENTITY)]).expect("one instance");
+    let one =
+        Scene::new(vec![tree], &[InstanceDesc::new(0, Rigid::IDENTITY)]).expect("one instance");
     let one = AnyAccel::new(one);
     let mut line = format!(
         "Scene overhead, the city ({} triangles) as one instance at the identity vs its bare \
@@ -122,7 +138,10 @@ fn overhead(rays: usize) -> String {
     );
     for (name, query) in [("per-ray", per_ray()), ("batched", batched())] {
         let (b, s) = (speed(&bare, query, &set), speed(&one, query, &set));
-        line += &format!(" {name} {b:.2} vs {s:.2} Mrays/s ({} of the bare tree);", ratio(s / b));
+        line += &format!(
+            " {name} {b:.2} vs {s:.2} Mrays/s ({} of the bare tree);",
+            ratio(s / b)
+        );
     }
     line.pop();
     line + ".\n"
@@ -134,8 +153,11 @@ fn motion(rays: usize) -> String {
     let world = props(MOVING, 1000.0, 7);
     let mut refitted = world.build(AccelKind::DEFAULT).expect("the props build");
     let mut rebuilt = world.build(AccelKind::DEFAULT).expect("the props build");
-    let mut poses: Vec<(f32, Vec3)> =
-        refitted.instances().iter().map(|i| (0.0, i.transform().translation())).collect();
+    let mut poses: Vec<(f32, Vec3)> = refitted
+        .instances()
+        .iter()
+        .map(|i| (0.0, i.transform().translation()))
+        .collect();
     let (mut refit_s, mut rebuild_s) = (0.0, 0.0);
     for frame in 0..FRAMES {
         let moves: Vec<(usize, Rigid)> = poses
@@ -149,7 +171,9 @@ fn motion(rays: usize) -> String {
             })
             .collect();
         let t = Instant::now();
-        refitted.set_transforms(&moves).expect("the instances exist");
+        refitted
+            .set_transforms(&moves)
+            .expect("the instances exist");
         refit_s += t.elapsed().as_secs_f64();
         let t = Instant::now();
         rebuilt.set_transforms(&moves).expect("the instances exist");

@@ -56,7 +56,8 @@ impl World {
                 continue;
             }
             for corner in 0..8 {
-                let pick = |bit: u32, lo: f32, hi: f32| if corner >> bit & 1 == 0 { lo } else { hi };
+                let pick =
+                    |bit: u32, lo: f32, hi: f32| if corner >> bit & 1 == 0 { lo } else { hi };
                 let p = Vec3::new(
                     pick(0, m.min.x, m.max.x),
                     pick(1, m.min.y, m.max.y),
@@ -183,7 +184,10 @@ pub fn props(count: usize, size: f32, seed: u64) -> World {
     let instances = (0..count)
         .map(|_| {
             let at = Vec3::new(rng.range_f32(0.0, size), 0.0, rng.range_f32(0.0, size));
-            InstanceDesc::new(rng.below(8) as usize, yawed(rng.range_f32(0.0, 6.283), at))
+            InstanceDesc::new(
+                rng.below(8) as usize,
+                yawed(rng.range_f32(0.0, std::f32::consts::TAU), at),
+            )
         })
         .collect();
     World {
