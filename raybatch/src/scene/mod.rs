@@ -22,6 +22,39 @@
 //! [`Scene::set_transforms`] (many, one refit), [`Scene::rebuild_top`] (new top-level tree),
 //! [`Scene::deform_mesh`] (new vertices, the mesh's AABB tree refitted: [`refit`]). Bad input
 //! is a [`SceneError`] and leaves the scene as it was.
+//!
+//! ```
+//! use raybatch::glam::{Quat, Vec3};
+//! use raybatch::scene::{InstanceDesc, MeshTree, Rigid, Scene};
+//! use raybatch::{AccelKind, BatchQueries, BuildOptions, Mesh, Ray, RayQueries};
+//!
+//! // One quad in its own space, facing +z, placed twice: as is, and turned and moved.
+//! let quad = Mesh::new(
+//!     vec![Vec3::new(-1.0, -1.0, 0.0), Vec3::new(1.0, -1.0, 0.0), Vec3::new(1.0, 1.0, 0.0), Vec3::new(-1.0, 1.0, 0.0)],
+//!     vec![[0, 1, 2], [0, 2, 3]],
+//! )?;
+//! let tree = MeshTree::build(AccelKind::DEFAULT, quad, &BuildOptions::default())?;
+//! let door = Rigid::new(Quat::from_rotation_y(0.5), Vec3::new(0.0, 0.0, 5.0))?;
+//! let mut scene = Scene::new(
+//!     vec![tree],
+//!     &[InstanceDesc::new(0, Rigid::IDENTITY), InstanceDesc::new(0, door)],
+//! )?;
+//!
+//! let ray = Ray::new(Vec3::new(0.1, 0.2, 10.0), Vec3::NEG_Z);
+//! let hit = scene.resolve(scene.cast_ray(&ray).unwrap()).unwrap();
+//! assert_eq!(hit.instance, 1); // the door is in front
+//!
+//! // Open the door (a refit of its path in the top-level tree): the ray now reaches the wall.
+//! scene.set_transform(1, Rigid::from_translation(Vec3::new(5.0, 0.0, 5.0))?)?;
+//! assert_eq!(scene.resolve(scene.cast_ray(&ray).unwrap()).unwrap().instance, 0);
+//!
+//! // Batched: the same answers as one ray at a time.
+//! let rays = vec![ray; 3];
+//! let mut hits = vec![None; 3];
+//! scene.cast_rays(&rays, &mut hits)?;
+//! assert!(hits.iter().all(|h| *h == scene.cast_ray(&ray)));
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
 
 pub mod error;
 pub mod filter;

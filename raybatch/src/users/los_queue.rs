@@ -83,10 +83,10 @@ pub struct LosQueue {
 }
 
 impl LosQueue {
-    /// A queue for up to `capacity` requests per frame (at least 1), answered with the
+    /// A queue for up to `capacity` requests per frame (1 to `u32::MAX`), answered with the
     /// default batch options.
     pub fn with_capacity(capacity: usize) -> Self {
-        let capacity = capacity.max(1);
+        let capacity = capacity.clamp(1, u32::MAX as usize);
         Self {
             requests: ArrayQueue::new(capacity),
             taken: AtomicUsize::new(0),
