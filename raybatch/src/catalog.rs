@@ -138,7 +138,7 @@ impl AccelKind {
 
 /// A zero-byte build error as the catalog's [`BuildError`] (only the size limits can occur:
 /// the catalog passes valid leaf and chunk sizes).
-fn too_large(rejected: Rejected) -> BuildError {
+pub(crate) fn too_large(rejected: Rejected) -> BuildError {
     let (needed, max, format) = match rejected.error {
         ZbtError::TooManyTriangles { count, max } => (count, max, "zbt (triangles)"),
         ZbtError::TooManyVertices { count, max } => (count, max, "zbt (vertices)"),

@@ -27,9 +27,11 @@
 //!   BVH collapsed from it), [`zbt`] (the zero-byte tree and its hybrid, no memory beside the
 //!   mesh);
 //! - engines: [`traverse`] (how a BVH walks one ray or a stream), [`batch`] (batch machinery);
-//! - adapters: [`permuted`] (a reordering structure answering in the original ids);
+//! - adapters: [`permuted`] (a reordering structure answering in the original ids), [`scene`]
+//!   (many meshes placed as instances, answering in world space);
 //! - what users call: [`query`] (per-ray and batched queries, brute force), [`catalog`] (every
-//!   structure by name, behind one dynamic type).
+//!   structure by name, behind one dynamic type), [`users`] (a line-of-sight request queue,
+//!   audio occlusion).
 
 #![warn(missing_docs)]
 #![deny(unsafe_code)]
@@ -45,9 +47,11 @@ mod parallel;
 pub mod permuted;
 mod prefetch;
 pub mod query;
+pub mod scene;
 #[cfg(test)]
 mod test_support;
 pub mod traverse;
+pub mod users;
 pub mod wide;
 pub mod workspace;
 pub mod zbt;
@@ -61,6 +65,7 @@ pub use glam;
 pub use hit::{Hit, Visitor};
 pub use mesh::{Mesh, MeshError};
 pub use query::{BatchError, BatchQueries, RayQueries};
+pub use scene::{InstanceDesc, MeshTree, Rigid, Scene, SceneError, SceneHit};
 pub use wide::WideTree;
 pub use workspace::{StructureId, Workspace};
 pub use zbt::{HybridTree, ZeroByteTree};

@@ -44,6 +44,20 @@ impl LeafTriangles {
         &self.mesh
     }
 
+    /// Puts `mesh` (the same triangles, moved vertices) in place of the mesh, refreshing the
+    /// corner copy (a refit).
+    pub(crate) fn replace_mesh(&mut self, mesh: Arc<Mesh>) {
+        if !self.corners.is_empty() {
+            self.corners = self.order.iter().map(|&id| mesh.triangle(id)).collect();
+        }
+        self.mesh = mesh;
+    }
+
+    /// Slot to triangle id.
+    pub(crate) fn order(&self) -> &[u32] {
+        &self.order
+    }
+
     /// Number of slots.
     pub(crate) fn len(&self) -> usize {
         self.order.len()

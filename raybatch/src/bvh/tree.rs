@@ -20,8 +20,8 @@ use crate::mesh::Mesh;
 /// A binary AABB tree over a mesh, with node format `N`.
 #[derive(Clone, Debug)]
 pub struct AabbTree<N: NodeFormat = FullNodes> {
-    nodes: N,
-    triangles: LeafTriangles,
+    pub(crate) nodes: N,
+    pub(crate) triangles: LeafTriangles,
     depth: usize,
     options: BuildOptions,
 }

@@ -6,7 +6,8 @@
 //! - [`zoo`]: every structure of `AccelKind::ALL` x leaf size x child ordering, as `AnyAccel`;
 //! - [`oracles`]: the brute-force reference, bit-for-bit comparisons, agreement checks;
 //! - [`strategies`]: proptest strategies for meshes and rays;
-//! - [`batch`]: the option space and single-ray reference of the batched queries.
+//! - [`batch`]: the option space and single-ray reference of the batched queries;
+//! - [`scenes`]: scene layouts and the scene oracle (brute force over every instance).
 //!
 //! Each test binary uses only part of them, hence `dead_code` is allowed.
 #![allow(dead_code)]
@@ -16,5 +17,6 @@ pub mod meshes;
 pub mod oracles;
 pub mod rays;
 pub mod rng;
+pub mod scenes;
 pub mod strategies;
 pub mod zoo;

@@ -7,7 +7,9 @@
 //! 2. the zero-byte trees against brute force, the only other zero-memory option (one line);
 //!    the triangle kernels on the default tree (one line);
 //! 3. per-ray vs batched on the pns trees ([`compare::batched_section`]);
-//! 4. on the bunny only, the batch size sweep and the partition kernels.
+//! 4. on the bunny only, the batch size sweep and the partition kernels;
+//!
+//! and, after the scenes, the scenes of instances ([`crate::scene_bench`], `--scenes instanced`).
 //!
 //! The trees are every structure of [`AccelKind::ALL`], in that order, and the default tree is
 //! [`AccelKind::DEFAULT`]: a structure added to the library gets its rows with no edit here.
@@ -30,7 +32,7 @@ use crate::table::{Align, Table, ratio, thousands};
 use crate::workload::{COLUMNS, PASSES, RaySets, speed};
 
 /// The built-in scenes `--scenes` accepts.
-pub const SCENE_NAMES: [&str; 3] = ["bunny", "terrain", "city"];
+pub const SCENE_NAMES: [&str; 4] = ["bunny", "terrain", "city", crate::scene_bench::NAME];
 
 /// Rays per set by default (the bunny included), with `--quick`, and at most for the orderings
 /// other than pns.
@@ -107,6 +109,13 @@ pub fn run(args: &BenchArgs) -> Result<(), CliError> {
     for scene in load_scenes(args)? {
         println!("{}", bench_scene(&scene, &plan));
     }
+    let instanced = match &args.scenes {
+        None => args.mesh.is_none(),
+        Some(names) => names.iter().any(|n| n == crate::scene_bench::NAME),
+    };
+    if instanced {
+        println!("{}", crate::scene_bench::section(plan.rays));
+    }
     Ok(())
 }
 
@@ -119,7 +128,11 @@ fn load_scenes(args: &BenchArgs) -> Result<Vec<BenchScene>, CliError> {
             progress("generating the built-in scenes ...");
             scenes::builtin()
         }
-        Some(names) => names.iter().map(|n| builtin_scene(n)).collect(),
+        Some(names) => names
+            .iter()
+            .filter(|n| *n != crate::scene_bench::NAME)
+            .map(|n| builtin_scene(n))
+            .collect(),
     };
     Ok(scenes.into_iter().map(BenchScene::from).collect())
 }

@@ -16,6 +16,7 @@ mod measure;
 mod query;
 mod rays;
 mod runner;
+mod scene_bench;
 mod table;
 mod workload;
 

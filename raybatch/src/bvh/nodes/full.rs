@@ -34,6 +34,16 @@ pub struct FullNodes {
     nodes: Vec<FullNode>,
 }
 
+impl FullNodes {
+    /// Replaces node `index`'s box (a refit: the caller keeps every box around its
+    /// triangles and its children's boxes).
+    pub(crate) fn set_bounds(&mut self, index: u32, bounds: Aabb) {
+        let n = &mut self.nodes[index as usize];
+        n.min = bounds.min.to_array();
+        n.max = bounds.max.to_array();
+    }
+}
+
 impl NodeFormat for FullNodes {
     const NAME: &'static str = "aabb";
 

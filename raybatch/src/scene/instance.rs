@@ -1,0 +1,126 @@
+//! Instances: a mesh placed in the world by a rigid transform, with a filter mask and the
+//! first global triangle id of its triangles; and the padded world boxes that make the
+//! top-level culling conservative.
+//!
+//! **Why boxes are padded.** A scene traces the world ray carried into mesh space
+//! ([`crate::scene::Rigid::ray_to_mesh`]), which is rounded; the top level culls with the world
+//! ray against world boxes. For the culling never to drop a hit the mesh-space trace would
+//! find, a hit at `t` in mesh space must put the *world* ray near the instance's world box at
+//! `t`. The rounding of the transform (of `origin - translation`, of the rotation's products
+//! and of the rotation matrix itself) moves that point by a few units in the last place of
+//! `|origin| + |translation| + |p|`, `p` the hit point in mesh space (its `t * |dir|` is bounded
+//! by the same terms). So each world box is grown by [`PAD`] times `|translation|_1 + max
+//! |corner|_1` (the instance's part, stored in the box) and, at query time, by `PAD *
+//! |origin|_1` (the ray's part). `PAD = 2^-16` is 256 units in the last place: a wide margin over
+//! the dozen or so the analysis needs, and still invisible to culling speed.
+
+use glam::Vec3;
+
+use crate::geom::Aabb;
+use crate::scene::rigid::Rigid;
+
+/// Relative padding of world boxes (see the module docs).
+pub const PAD: f32 = 1.0 / 65536.0;
+
+/// The filter mask an instance gets unless told otherwise: visible to every query.
+pub const ALL_LAYERS: u32 = u32::MAX;
+
+/// What [`crate::scene::Scene::new`] needs for one instance.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct InstanceDesc {
+    /// Index of the mesh in the scene's mesh list.
+    pub mesh: usize,
+    /// Where the mesh sits in the world.
+    pub transform: Rigid,
+    /// Filter layers: a query with mask `m` sees the instance if `mask & m != 0`.
+    pub mask: u32,
+}
+
+impl InstanceDesc {
+    /// Mesh `mesh` at `transform`, on every layer.
+    pub fn new(mesh: usize, transform: Rigid) -> Self {
+        Self {
+            mesh,
+            transform,
+            mask: ALL_LAYERS,
+        }
+    }
+}
+
+/// An instance of a scene.
+#[derive(Clone, Copy, Debug)]
+pub struct Instance {
+    pub(crate) mesh: u32,
+    pub(crate) transform: Rigid,
+    pub(crate) mask: u32,
+    pub(crate) first_id: u32,
+    pub(crate) world_box: Aabb,
+}
+
+impl Instance {
+    /// Index of its mesh.
+    pub fn mesh(&self) -> usize {
+        self.mesh as usize
+    }
+
+    /// Where it sits.
+    pub fn transform(&self) -> Rigid {
+        self.transform
+    }
+
+    /// Its filter layers.
+    pub fn mask(&self) -> u32 {
+        self.mask
+    }
+
+    /// The global id of its triangle 0 (its triangle `i` is global id `first_id + i`).
+    pub fn first_id(&self) -> u32 {
+        self.first_id
+    }
+
+    /// Its world box, padded (see the module docs).
+    pub fn world_box(&self) -> Aabb {
+        self.world_box
+    }
+}
+
+/// The padded world box of a mesh box placed by `transform` (empty for an empty mesh box).
+pub(crate) fn world_box(mesh_box: Aabb, transform: &Rigid) -> Aabb {
+    if mesh_box.is_empty() {
+        return Aabb::EMPTY;
+    }
+    let corners = (0..8).map(|i| {
+        let pick = |bit: usize, lo: f32, hi: f32| if i >> bit & 1 == 0 { lo } else { hi };
+        Vec3::new(
+            pick(0, mesh_box.min.x, mesh_box.max.x),
+            pick(1, mesh_box.min.y, mesh_box.max.y),
+            pick(2, mesh_box.min.z, mesh_box.max.z),
+        )
+    });
+    let (mut world, mut reach) = (Aabb::EMPTY, 0.0f32);
+    for c in corners {
+        world = world.grow(transform.point_to_world(c));
+        reach = reach.max(l1(c));
+    }
+    let pad = PAD * (reach + l1(transform.translation()));
+    Aabb::new(world.min - pad, world.max + pad)
+}
+
+/// The ray's part of the padding (see the module docs).
+#[inline(always)]
+pub(crate) fn ray_pad(origin: Vec3) -> f32 {
+    (PAD * l1(origin)).min(f32::MAX)
+}
+
+/// `|x| + |y| + |z|`.
+#[inline(always)]
+fn l1(v: Vec3) -> f32 {
+    let a = v.abs();
+    a.x + a.y + a.z
+}
+
+/// `b` grown by `pad` on every side.
+#[inline(always)]
+pub(crate) fn grown(b: &Aabb, pad: f32) -> Aabb {
+    Aabb::new(b.min - pad, b.max + pad)
+}

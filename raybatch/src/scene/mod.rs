@@ -1,0 +1,75 @@
+//! Scenes: many meshes, each with its own tree, placed in the world as instances with rigid
+//! transforms, behind the same interface as one tree.
+//!
+//! A [`Scene`] holds meshes (any tree kind, chosen per mesh: [`MeshTree`]), instances of them
+//! ([`InstanceDesc`]: a mesh, a [`Rigid`] transform, filter layers; several instances may
+//! share a mesh), and a top-level tree over the instances' world boxes. It is an
+//! [`crate::accel::Accel`], so every query of [`crate::query`] works on it, per ray and
+//! batched, answering in *global* triangle ids ([`Scene::resolve`] gives instance and
+//! triangle back). [`Scene::filtered`] restricts a query to some layers.
+//!
+//! **What a scene answer is.** For each instance, the ray carried into its mesh space by
+//! [`Rigid::ray_to_mesh`] (documented operations, see [`rigid`]) is traced exactly against the
+//! mesh; the scene keeps, over all instances, the closest hit by `t` and then lowest global id,
+//! any hit, or every hit. At an identity transform that is the bare tree's answer bit for bit;
+//! otherwise it is exact for the rounded mesh-space ray, whose `t` equals the world ray's up to
+//! a few units in the last place (a rotation preserves lengths; the direction is not
+//! renormalised). Culling in the top level never changes an answer: its boxes are padded to
+//! cover the transform's rounding ([`instance`]). Batched answers equal per-ray answers bit
+//! for bit.
+//!
+//! Between frames: [`Scene::set_transform`] (one instance, refits its path),
+//! [`Scene::set_transforms`] (many, one refit), [`Scene::rebuild_top`] (new top-level tree),
+//! [`Scene::deform_mesh`] (new vertices, the mesh's AABB tree refitted: [`refit`]). Bad input
+//! is a [`SceneError`] and leaves the scene as it was.
+//!
+//! ```
+//! use raybatch::glam::{Quat, Vec3};
+//! use raybatch::scene::{InstanceDesc, MeshTree, Rigid, Scene};
+//! use raybatch::{AccelKind, BatchQueries, BuildOptions, Mesh, Ray, RayQueries};
+//!
+//! // One quad in its own space, facing +z, placed twice: as is, and turned and moved.
+//! let quad = Mesh::new(
+//!     vec![Vec3::new(-1.0, -1.0, 0.0), Vec3::new(1.0, -1.0, 0.0), Vec3::new(1.0, 1.0, 0.0), Vec3::new(-1.0, 1.0, 0.0)],
+//!     vec![[0, 1, 2], [0, 2, 3]],
+//! )?;
+//! let tree = MeshTree::build(AccelKind::DEFAULT, quad, &BuildOptions::default())?;
+//! let door = Rigid::new(Quat::from_rotation_y(0.5), Vec3::new(0.0, 0.0, 5.0))?;
+//! let mut scene = Scene::new(
+//!     vec![tree],
+//!     &[InstanceDesc::new(0, Rigid::IDENTITY), InstanceDesc::new(0, door)],
+//! )?;
+//!
+//! let ray = Ray::new(Vec3::new(0.1, 0.2, 10.0), Vec3::NEG_Z);
+//! let hit = scene.resolve(scene.cast_ray(&ray).unwrap()).unwrap();
+//! assert_eq!(hit.instance, 1); // the door is in front
+//!
+//! // Open the door (a refit of its path in the top-level tree): the ray now reaches the wall.
+//! scene.set_transform(1, Rigid::from_translation(Vec3::new(5.0, 0.0, 5.0))?)?;
+//! assert_eq!(scene.resolve(scene.cast_ray(&ray).unwrap()).unwrap().instance, 0);
+//!
+//! // Batched: the same answers as one ray at a time.
+//! let rays = vec![ray; 3];
+//! let mut hits = vec![None; 3];
+//! scene.cast_rays(&rays, &mut hits)?;
+//! assert!(hits.iter().all(|h| *h == scene.cast_ray(&ray)));
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
+
+pub mod error;
+pub mod filter;
+pub mod instance;
+pub mod mesh_tree;
+pub mod refit;
+pub mod rigid;
+mod top;
+pub mod trace;
+pub mod world;
+
+pub use error::SceneError;
+pub use filter::SceneView;
+pub use instance::{ALL_LAYERS, Instance, InstanceDesc};
+pub use mesh_tree::{MeshTree, SceneMesh};
+pub use rigid::{RIGID_TOLERANCE, Rigid};
+pub use trace::SceneScratch;
+pub use world::{Scene, SceneHit};

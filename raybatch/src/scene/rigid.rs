@@ -1,0 +1,198 @@
+//! [`Rigid`]: where an instance sits in the world (a rotation and a translation), and the one
+//! documented way a world ray is carried into the instance's mesh space.
+//!
+//! **The transform contract.** A scene answers a world ray on an instance by tracing the ray
+//! [`Rigid::ray_to_mesh`] returns, exactly (watertight kernel, tie rule) against the instance's
+//! mesh. That function is the definition: `origin' = M * (origin - translation)` and
+//! `dir' = M * dir` (the direction with subnormal components flushed, as every query does), with
+//! `M` the transpose of the rotation's matrix and each product evaluated as
+//! `M.x_axis * v.x + M.y_axis * v.y + M.z_axis * v.z`, left to right, without FMA; `tmin`
+//! and `tmax` are kept. An instance whose rotation is exactly the identity skips the product:
+//! `origin' = origin - translation`, `dir' = dir`, so at the identity transform a scene answers
+//! bit for bit as the bare tree.
+//!
+//! The direction is rotated, not renormalised: a rotation preserves lengths, so the mesh-space
+//! `t` is the world `t` (in units of the world ray's direction) up to the rounding of the
+//! product, a few units in the last place of `|dir|`. Hits of different instances are compared
+//! by that `t`, and the tie rule then picks the lowest global triangle id.
+
+use glam::{Mat3, Quat, Vec3};
+
+use crate::geom::ray::flush_subnormals;
+use crate::geom::{PreparedRay, Ray};
+use crate::scene::error::SceneError;
+
+/// How far a rotation's quaternion may be from unit length (squared norm within `1 +- this`)
+/// before it is rejected as non-rigid rather than renormalised.
+pub const RIGID_TOLERANCE: f32 = 1e-4;
+
+/// A rigid transform, mesh space to world space: `world = rotation * mesh + translation`.
+/// Built only through [`Rigid::new`] (or the constants), so every value is finite and its
+/// rotation a unit quaternion.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Rigid {
+    rotation: Quat,
+    translation: Vec3,
+    /// Mesh to world rotation matrix (columns), for world boxes.
+    to_world: Mat3,
+    /// World to mesh rotation matrix: the transpose of `to_world`.
+    to_mesh: Mat3,
+    /// True unless the rotation is exactly the identity quaternion.
+    rotated: bool,
+}
+
+impl Default for Rigid {
+    fn default() -> Self {
+        Self::IDENTITY
+    }
+}
+
+impl Rigid {
+    /// The identity: mesh space is world space.
+    pub const IDENTITY: Rigid = Rigid {
+        rotation: Quat::IDENTITY,
+        translation: Vec3::ZERO,
+        to_world: Mat3::IDENTITY,
+        to_mesh: Mat3::IDENTITY,
+        rotated: false,
+    };
+
+    /// The transform rotating by `rotation`, then moving by `translation`. The quaternion is
+    /// renormalised if its squared length is within [`RIGID_TOLERANCE`] of 1; anything else
+    /// (a scale, a shear, a NaN or infinity) is a [`SceneError`].
+    pub fn new(rotation: Quat, translation: Vec3) -> Result<Self, SceneError> {
+        if !rotation.is_finite() || !translation.is_finite() {
+            return Err(SceneError::NonFiniteTransform);
+        }
+        let norm2 = rotation.length_squared();
+        if (norm2 - 1.0).abs() > RIGID_TOLERANCE {
+            return Err(SceneError::NonRigidTransform { norm2 });
+        }
+        let rotation = if rotation == Quat::IDENTITY {
+            rotation
+        } else {
+            rotation.normalize()
+        };
+        let to_world = Mat3::from_quat(rotation);
+        Ok(Self {
+            rotation,
+            translation,
+            to_world,
+            to_mesh: to_world.transpose(),
+            rotated: rotation != Quat::IDENTITY,
+        })
+    }
+
+    /// A pure translation (exact: the ray's origin is shifted, its direction kept).
+    pub fn from_translation(translation: Vec3) -> Result<Self, SceneError> {
+        Self::new(Quat::IDENTITY, translation)
+    }
+
+    /// True for the identity (no rotation, translation `+0` on every axis): mesh space is
+    /// world space and `ray_to_mesh` returns every ray bit for bit (`x - (+0) = x`, even for
+    /// `x = -0`; a `-0` translation would turn a `-0` origin into `+0`, so it is excluded).
+    pub fn is_identity(&self) -> bool {
+        !self.rotated && self.translation.to_array().iter().all(|c| c.to_bits() == 0)
+    }
+
+    /// The rotation (unit length).
+    pub fn rotation(&self) -> Quat {
+        self.rotation
+    }
+
+    /// The translation.
+    pub fn translation(&self) -> Vec3 {
+        self.translation
+    }
+
+    /// The world ray `ray` in mesh space: the definition every scene query follows (see the
+    /// module docs).
+    #[inline]
+    pub fn ray_to_mesh(&self, ray: &Ray) -> Ray {
+        let dir = flush_subnormals(ray.dir);
+        let offset = ray.origin - self.translation;
+        let (origin, dir) = if self.rotated {
+            (mul(&self.to_mesh, offset), mul(&self.to_mesh, dir))
+        } else {
+            (offset, dir)
+        };
+        Ray::with_range(origin, dir, ray.tmin, ray.tmax)
+    }
+
+    /// [`Rigid::ray_to_mesh`] of the valid ray `ray` with range end `tmax`, prepared: `None`
+    /// if the mesh-space ray is invalid. Without a rotation only the origin changes, so the
+    /// world ray's constants are kept (the very values `PreparedRay::new` would compute from
+    /// the same direction): the fast path of translated instances, such as terrain tiles.
+    #[inline]
+    pub(crate) fn prepared_to_mesh(&self, ray: &PreparedRay, tmax: f32) -> Option<PreparedRay> {
+        if self.rotated {
+            let world = Ray::with_range(ray.origin, ray.dir, ray.tmin, tmax);
+            return PreparedRay::new(&self.ray_to_mesh(&world));
+        }
+        let origin = ray.origin - self.translation;
+        let range_ok = ray.tmin <= tmax;
+        (origin.is_finite() && range_ok).then_some(PreparedRay {
+            origin,
+            tmax,
+            ..*ray
+        })
+    }
+
+    /// A mesh-space point in the world (rounded; only used for boxes, which are padded).
+    pub fn point_to_world(&self, p: Vec3) -> Vec3 {
+        mul(&self.to_world, p) + self.translation
+    }
+}
+
+/// `m * v` in the documented order: `x_axis * v.x + y_axis * v.y + z_axis * v.z`.
+#[inline(always)]
+fn mul(m: &Mat3, v: Vec3) -> Vec3 {
+    let x = m.x_axis * v.x;
+    let y = m.y_axis * v.y;
+    let z = m.z_axis * v.z;
+    (x + y) + z
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn identity_keeps_rays_bit_for_bit() {
+        let ray = Ray::with_range(
+            Vec3::new(-0.0, 1.5, 3.0),
+            Vec3::new(-0.0, 0.0, -1.0),
+            0.5,
+            9.0,
+        );
+        let r = Rigid::IDENTITY.ray_to_mesh(&ray);
+        assert_eq!(r.origin.x.to_bits(), (-0.0f32).to_bits());
+        assert_eq!(r.dir.x.to_bits(), (-0.0f32).to_bits());
+        assert_eq!((r.tmin, r.tmax), (0.5, 9.0));
+    }
+
+    #[test]
+    fn rejects_scale_and_non_finite() {
+        assert_eq!(
+            Rigid::new(Quat::from_xyzw(0.0, 0.0, 0.0, 2.0), Vec3::ZERO),
+            Err(SceneError::NonRigidTransform { norm2: 4.0 })
+        );
+        assert_eq!(
+            Rigid::new(Quat::IDENTITY, Vec3::new(f32::NAN, 0.0, 0.0)),
+            Err(SceneError::NonFiniteTransform)
+        );
+        assert_eq!(
+            Rigid::new(Quat::from_xyzw(f32::INFINITY, 0.0, 0.0, 1.0), Vec3::ZERO),
+            Err(SceneError::NonFiniteTransform)
+        );
+    }
+
+    #[test]
+    fn rotation_round_trips_points() {
+        let r = Rigid::new(Quat::from_rotation_y(0.7), Vec3::new(1.0, 2.0, 3.0)).unwrap();
+        let p = Vec3::new(0.3, -0.2, 0.9);
+        let ray = Ray::new(r.point_to_world(p), Vec3::X);
+        let back = r.ray_to_mesh(&ray).origin;
+        assert!((back - p).length() < 1e-5);
+    }
+}

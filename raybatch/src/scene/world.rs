@@ -1,0 +1,221 @@
+//! [`Scene`]: meshes (each with its own tree), instances of them in the world, the top-level
+//! tree over the instances, and the edits a game makes between frames (move an instance,
+//! change its layers, deform a mesh).
+//!
+//! Global triangle ids number the instances' triangles one instance after the other: instance
+//! `i`'s triangle `j` is `first_id(i) + j`. A scene answers every query of
+//! [`crate::query`] in global ids (it is an [`crate::accel::Accel`]), so the tie rule "lowest
+//! id on equal `t`" reads "lowest instance, then lowest triangle"; [`Scene::resolve`] turns a
+//! [`Hit`] back into an instance and a triangle.
+
+use glam::Vec3;
+
+use crate::hit::Hit;
+use crate::mesh::MAX_TRIANGLES;
+use crate::scene::error::SceneError;
+use crate::scene::instance::{Instance, InstanceDesc, world_box};
+use crate::scene::mesh_tree::{MeshTree, SceneMesh};
+use crate::scene::rigid::Rigid;
+use crate::scene::top::TopTree;
+
+/// Many meshes placed as instances, answering rays in world space (see the module docs and
+/// [`crate::scene`]).
+#[derive(Debug)]
+pub struct Scene<A: SceneMesh = MeshTree> {
+    pub(crate) meshes: Vec<A>,
+    pub(crate) instances: Vec<Instance>,
+    pub(crate) top: TopTree,
+    /// Per instance, its world box and mask, in the arrays the top-level tree reads.
+    boxes: Vec<crate::geom::Aabb>,
+    masks: Vec<u32>,
+}
+
+/// A scene hit resolved to its instance: what a game reads.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SceneHit {
+    /// The instance hit.
+    pub instance: u32,
+    /// The triangle's id in the instance's mesh.
+    pub triangle: u32,
+    /// Distance along the world ray, in units of its direction (see [`crate::scene::rigid`]).
+    pub t: f32,
+    /// Barycentric weight of the triangle's second corner.
+    pub u: f32,
+    /// Barycentric weight of the triangle's third corner.
+    pub v: f32,
+}
+
+impl<A: SceneMesh> Scene<A> {
+    /// A scene of `meshes` placed as `instances` (several may share a mesh). Errors on an
+    /// instance of a mesh that does not exist or more triangles than 32-bit ids can number.
+    pub fn new(meshes: Vec<A>, instances: &[InstanceDesc]) -> Result<Self, SceneError> {
+        let mut total = 0u64;
+        for d in instances {
+            let mesh = meshes.get(d.mesh).ok_or(SceneError::NoSuchMesh {
+                mesh: d.mesh,
+                meshes: meshes.len(),
+            })?;
+            total += mesh.triangle_count() as u64;
+        }
+        if total > MAX_TRIANGLES as u64 {
+            return Err(SceneError::TooManyTriangles { count: total });
+        }
+        let mut first_id = 0u32;
+        let instances: Vec<Instance> = instances
+            .iter()
+            .map(|d| {
+                let mesh = &meshes[d.mesh];
+                let instance = Instance {
+                    mesh: d.mesh as u32,
+                    transform: d.transform,
+                    mask: d.mask,
+                    first_id,
+                    world_box: world_box(mesh.mesh_bounds(), &d.transform),
+                };
+                first_id += mesh.triangle_count() as u32;
+                instance
+            })
+            .collect();
+        let boxes: Vec<_> = instances.iter().map(|i| i.world_box).collect();
+        let masks: Vec<_> = instances.iter().map(|i| i.mask).collect();
+        Ok(Self {
+            top: TopTree::build(&boxes, &masks),
+            meshes,
+            instances,
+            boxes,
+            masks,
+        })
+    }
+
+    /// The meshes.
+    pub fn meshes(&self) -> &[A] {
+        &self.meshes
+    }
+
+    /// The instances, by index.
+    pub fn instances(&self) -> &[Instance] {
+        &self.instances
+    }
+
+    /// Triangles over all instances (one more than the largest global id).
+    pub fn triangle_count(&self) -> usize {
+        self.instances.last().map_or(0, |i| {
+            i.first_id as usize + self.meshes[i.mesh()].triangle_count()
+        })
+    }
+
+    /// The instance and mesh triangle of global triangle id `id`, if it exists.
+    pub fn locate(&self, id: u32) -> Option<(u32, u32)> {
+        if id as usize >= self.triangle_count() {
+            return None;
+        }
+        let after = self.instances.partition_point(|i| i.first_id <= id);
+        // Instances of empty meshes share their first id with the next one: take the last
+        // instance starting at or before `id`, which owns it.
+        let instance = after.checked_sub(1)?;
+        Some((instance as u32, id - self.instances[instance].first_id))
+    }
+
+    /// `hit` (a scene query's answer, in global ids) as instance and mesh triangle.
+    pub fn resolve(&self, hit: Hit) -> Option<SceneHit> {
+        let (instance, triangle) = self.locate(hit.triangle)?;
+        Some(SceneHit {
+            instance,
+            triangle,
+            t: hit.t,
+            u: hit.u,
+            v: hit.v,
+        })
+    }
+
+    /// Moves one instance and refits the top-level boxes on its path to the root
+    /// (`O(depth)`): for a door or a vehicle. On error nothing changes.
+    pub fn set_transform(&mut self, instance: usize, transform: Rigid) -> Result<(), SceneError> {
+        self.check_instance(instance)?;
+        self.place(instance, transform);
+        self.top.refit_instance(instance, &self.boxes, &self.masks);
+        Ok(())
+    }
+
+    /// Moves many instances and refits the whole top level once (`O(instances)`): a frame's
+    /// motion. Every index is checked before anything moves; on error nothing changes. The
+    /// tree keeps its shape, so after large motions [`Scene::rebuild_top`] restores its speed
+    /// (the bench measures both).
+    pub fn set_transforms(&mut self, moves: &[(usize, Rigid)]) -> Result<(), SceneError> {
+        for &(instance, _) in moves {
+            self.check_instance(instance)?;
+        }
+        for &(instance, transform) in moves {
+            self.place(instance, transform);
+        }
+        self.top.refit(&self.boxes, &self.masks);
+        Ok(())
+    }
+
+    /// Rebuilds the top-level tree from the instances' current boxes (binned SAH).
+    pub fn rebuild_top(&mut self) {
+        self.top = TopTree::build(&self.boxes, &self.masks);
+    }
+
+    /// Sets an instance's filter layers (see [`crate::scene::SceneView`]).
+    pub fn set_mask(&mut self, instance: usize, mask: u32) -> Result<(), SceneError> {
+        self.check_instance(instance)?;
+        self.instances[instance].mask = mask;
+        self.masks[instance] = mask;
+        self.top.refit_instance(instance, &self.boxes, &self.masks);
+        Ok(())
+    }
+
+    /// Bytes the scene adds to its meshes' trees: instances and the top-level tree.
+    pub fn scene_bytes(&self) -> usize {
+        self.instances.len() * (size_of::<Instance>() + size_of::<u32>() + size_of::<Vec3>() * 2)
+            + self.top.heap_bytes()
+    }
+
+    fn check_instance(&self, instance: usize) -> Result<(), SceneError> {
+        if instance < self.instances.len() {
+            Ok(())
+        } else {
+            Err(SceneError::NoSuchInstance {
+                instance,
+                instances: self.instances.len(),
+            })
+        }
+    }
+
+    /// Sets an instance's transform and world box (not the top level).
+    fn place(&mut self, instance: usize, transform: Rigid) {
+        let i = &mut self.instances[instance];
+        i.transform = transform;
+        i.world_box = world_box(self.meshes[i.mesh()].mesh_bounds(), &transform);
+        self.boxes[instance] = i.world_box;
+    }
+
+    /// Recomputes the world boxes of every instance of `mesh` and refits the top level.
+    fn mesh_moved(&mut self, mesh: usize) {
+        for index in 0..self.instances.len() {
+            if self.instances[index].mesh() == mesh {
+                let transform = self.instances[index].transform;
+                self.place(index, transform);
+            }
+        }
+        self.top.refit(&self.boxes, &self.masks);
+    }
+}
+
+impl Scene<MeshTree> {
+    /// Moves mesh `mesh`'s vertices to `vertices` (same count, same triangles: a deformation)
+    /// and refits its tree and every instance of it, without a rebuild. Only meshes built as
+    /// [`crate::catalog::AccelKind::Aabb`] can be refitted (see [`crate::scene::refit`]); on
+    /// error nothing changes.
+    pub fn deform_mesh(&mut self, mesh: usize, vertices: Vec<Vec3>) -> Result<(), SceneError> {
+        let meshes = self.meshes.len();
+        let tree = self
+            .meshes
+            .get_mut(mesh)
+            .ok_or(SceneError::NoSuchMesh { mesh, meshes })?;
+        tree.refit(vertices)?;
+        self.mesh_moved(mesh);
+        Ok(())
+    }
+}

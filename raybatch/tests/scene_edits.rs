@@ -1,0 +1,288 @@
+//! Scenes beyond the random layouts: an instance at the identity answers bit for bit as the
+//! bare tree (every kind, per ray and batched); moving instances (one, many, rebuild), changing
+//! layers and deforming a mesh keep answers equal to brute force; `locate` inverts global ids;
+//! bad input is a typed error that leaves the scene as it was.
+
+mod common;
+
+use std::sync::Arc;
+
+use common::meshes::icosphere;
+use common::oracles::{all_bits, bits, opt_bits};
+use common::rays::{hard_rays, incoherent};
+use common::rng::{RngExt, seeded};
+use common::scenes::{build_scene, scene_brute_force};
+use glam::{Quat, Vec3};
+use raybatch::scene::{InstanceDesc, MeshTree, Rigid, Scene, SceneError};
+use raybatch::{
+    AccelKind, BatchOptions, BatchQueries, BuildOptions, Kernel, Mesh, MeshError, Ray, RayQueries,
+};
+
+/// Per-ray and batched closest hits and occlusion of `scene` equal the oracle's on `rays`.
+fn assert_matches(scene: &Scene, meshes: &[Mesh], descs: &[InstanceDesc], rays: &[Ray]) {
+    let options = BatchOptions::default().with_min_batch(0);
+    let mut hits = vec![None; rays.len()];
+    scene.cast_rays_with(rays, &mut hits, &options).unwrap();
+    let mut occluded = vec![false; rays.len()];
+    scene
+        .occluded_batch_with(rays, &mut occluded, &options)
+        .unwrap();
+    for (i, ray) in rays.iter().enumerate() {
+        let r = scene_brute_force(meshes, descs, ray, Kernel::Watertight, u32::MAX);
+        assert_eq!(
+            opt_bits(scene.cast_ray(ray)),
+            opt_bits(r.closest),
+            "{ray:?}"
+        );
+        assert_eq!(opt_bits(hits[i]), opt_bits(r.closest), "batched {ray:?}");
+        assert_eq!(occluded[i], r.occluded, "{ray:?}");
+        assert_eq!(all_bits(&scene.all_hits(ray)), all_bits(&r.all), "{ray:?}");
+    }
+}
+
+fn descs_of(scene: &Scene) -> Vec<InstanceDesc> {
+    scene
+        .instances()
+        .iter()
+        .map(|i| InstanceDesc {
+            mesh: i.mesh(),
+            transform: i.transform(),
+            mask: i.mask(),
+        })
+        .collect()
+}
+
+fn sphere_rays(count: usize, seed: u64) -> Vec<Ray> {
+    let big = common::meshes::transformed(&icosphere(1), 6.0, glam::DVec3::ZERO);
+    incoherent(&big, count, &mut seeded(seed))
+}
+
+#[test]
+fn identity_instance_answers_as_the_bare_tree() {
+    let mesh = Arc::new(icosphere(3));
+    let mut rays = hard_rays(&mesh, 9);
+    rays.extend(incoherent(&mesh, 500, &mut seeded(10)));
+    for kind in AccelKind::ALL {
+        let bare = kind.build(mesh.clone(), &BuildOptions::default()).unwrap();
+        let tree = MeshTree::build(kind, mesh.clone(), &BuildOptions::default()).unwrap();
+        let scene = Scene::new(vec![tree], &[InstanceDesc::new(0, Rigid::IDENTITY)]).unwrap();
+        for ray in &rays {
+            assert_eq!(
+                opt_bits(scene.cast_ray(ray)),
+                opt_bits(bare.cast_ray(ray)),
+                "{kind:?} {ray:?}"
+            );
+            assert_eq!(scene.occluded(ray), bare.occluded(ray));
+            assert_eq!(
+                all_bits(&scene.all_hits(ray)),
+                all_bits(&bare.all_hits(ray))
+            );
+        }
+        let options = BatchOptions::default().with_min_batch(0);
+        let (mut a, mut b) = (vec![None; rays.len()], vec![None; rays.len()]);
+        scene.cast_rays_with(&rays, &mut a, &options).unwrap();
+        bare.cast_rays_with(&rays, &mut b, &options).unwrap();
+        let bits_of = |h: &[Option<raybatch::Hit>]| {
+            h.iter().map(|h| h.as_ref().map(bits)).collect::<Vec<_>>()
+        };
+        assert_eq!(bits_of(&a), bits_of(&b), "{kind:?} batched");
+    }
+}
+
+#[test]
+fn translated_instance_answers_as_the_tree_on_shifted_rays() {
+    let mesh = Arc::new(icosphere(2));
+    let shift = Vec3::new(4.0, -2.0, 8.0);
+    let tree = MeshTree::build(AccelKind::Bvh4, mesh.clone(), &BuildOptions::default()).unwrap();
+    let bare = AccelKind::Bvh4
+        .build(mesh.clone(), &BuildOptions::default())
+        .unwrap();
+    let at = Rigid::from_translation(shift).unwrap();
+    let scene = Scene::new(vec![tree], &[InstanceDesc::new(0, at)]).unwrap();
+    for ray in incoherent(&mesh, 300, &mut seeded(11)) {
+        let world = Ray {
+            origin: ray.origin + shift,
+            ..ray
+        };
+        let local = Ray {
+            origin: world.origin - shift,
+            ..ray
+        };
+        let hit = scene.cast_ray(&world);
+        assert_eq!(opt_bits(hit), opt_bits(bare.cast_ray(&local)));
+        if let Some(h) = hit {
+            let r = scene.resolve(h).unwrap();
+            assert_eq!((r.instance, r.triangle), (0, h.triangle));
+        }
+    }
+}
+
+/// A row of spheres of three kinds, shared meshes.
+fn row() -> (Vec<Mesh>, Vec<InstanceDesc>, Scene) {
+    let meshes = vec![icosphere(1), icosphere(2)];
+    let descs: Vec<InstanceDesc> = (0..12)
+        .map(|i| {
+            let r = Quat::from_rotation_z(i as f32 * 0.4);
+            let t = Vec3::new(i as f32 * 1.5 - 8.0, (i % 3) as f32, 0.0);
+            InstanceDesc::new(i % 2, Rigid::new(r, t).unwrap())
+        })
+        .collect();
+    let scene = build_scene(&meshes, &[AccelKind::Aabb, AccelKind::Zbt], &descs);
+    (meshes, descs, scene)
+}
+
+#[test]
+fn moving_instances_keeps_answers_exact() {
+    let (meshes, _, mut scene) = row();
+    let rays = sphere_rays(400, 12);
+    let mut rng = seeded(13);
+    let random_move = |rng: &mut common::rng::StdRng| {
+        let r = Quat::from_euler(
+            glam::EulerRot::XYZ,
+            rng.random(),
+            rng.random(),
+            rng.random(),
+        );
+        let t = Vec3::new(rng.random(), rng.random(), rng.random()) * 8.0 - 4.0;
+        Rigid::new(r, t).unwrap()
+    };
+    scene.set_transform(3, random_move(&mut rng)).unwrap();
+    assert_matches(&scene, &meshes, &descs_of(&scene), &rays);
+    let moves: Vec<(usize, Rigid)> = (0..12)
+        .step_by(2)
+        .map(|i| (i, random_move(&mut rng)))
+        .collect();
+    scene.set_transforms(&moves).unwrap();
+    assert_matches(&scene, &meshes, &descs_of(&scene), &rays);
+    scene.rebuild_top();
+    assert_matches(&scene, &meshes, &descs_of(&scene), &rays);
+}
+
+#[test]
+fn layers_filter_instances() {
+    let (meshes, _, mut scene) = row();
+    for i in 0..12 {
+        scene.set_mask(i, 1 << (i % 3)).unwrap();
+    }
+    let descs = descs_of(&scene);
+    for ray in sphere_rays(200, 14) {
+        for mask in [1, 2, 4, 5, 0] {
+            let r = scene_brute_force(&meshes, &descs, &ray, Kernel::Watertight, mask);
+            let view = scene.filtered(mask);
+            assert_eq!(opt_bits(view.cast_ray(&ray)), opt_bits(r.closest));
+            assert_eq!(view.occluded(&ray), r.occluded);
+            if let Some(h) = view.cast_ray(&ray) {
+                let instance = scene.resolve(h).unwrap().instance as usize;
+                assert!(descs[instance].mask & mask != 0);
+            }
+        }
+    }
+}
+
+#[test]
+fn deformed_mesh_is_refitted_exactly() {
+    let (mut meshes, descs, mut scene) = row();
+    let rays = sphere_rays(300, 15);
+    // Mesh 0 is an AABB tree: squash and stretch it.
+    let moved: Vec<Vec3> = meshes[0]
+        .vertices()
+        .iter()
+        .map(|v| Vec3::new(v.x * 1.7, v.y * 0.3 + v.x * v.x, v.z + 0.5))
+        .collect();
+    scene.deform_mesh(0, moved.clone()).unwrap();
+    meshes[0] = Mesh::new(moved, meshes[0].triangles().to_vec()).unwrap();
+    assert_matches(&scene, &meshes, &descs, &rays);
+}
+
+#[test]
+fn locate_inverts_global_ids() {
+    let (meshes, descs, scene) = row();
+    let mut first = 0u32;
+    for (i, d) in descs.iter().enumerate() {
+        let n = meshes[d.mesh].triangle_count() as u32;
+        assert_eq!(scene.instances()[i].first_id(), first);
+        assert_eq!(scene.locate(first), Some((i as u32, 0)));
+        assert_eq!(scene.locate(first + n - 1), Some((i as u32, n - 1)));
+        first += n;
+    }
+    assert_eq!(scene.triangle_count(), first as usize);
+    assert_eq!(scene.locate(first), None);
+}
+
+#[test]
+fn bad_input_is_a_typed_error_and_changes_nothing() {
+    let (meshes, descs, mut scene) = row();
+    let rays = sphere_rays(100, 16);
+    let tree = || MeshTree::build(AccelKind::Aabb, icosphere(0), &BuildOptions::default()).unwrap();
+    assert_eq!(
+        Scene::new(vec![tree()], &[InstanceDesc::new(1, Rigid::IDENTITY)]).unwrap_err(),
+        SceneError::NoSuchMesh { mesh: 1, meshes: 1 }
+    );
+    assert!(matches!(
+        Rigid::new(Quat::from_xyzw(0.0, 0.0, 0.0, 1.5), Vec3::ZERO),
+        Err(SceneError::NonRigidTransform { .. })
+    ));
+    assert_eq!(
+        Rigid::new(Quat::IDENTITY, Vec3::new(0.0, f32::INFINITY, 0.0)),
+        Err(SceneError::NonFiniteTransform)
+    );
+    assert_eq!(
+        Rigid::new(Quat::from_xyzw(f32::NAN, 0.0, 0.0, 1.0), Vec3::ZERO),
+        Err(SceneError::NonFiniteTransform)
+    );
+    let far = Rigid::from_translation(Vec3::splat(100.0)).unwrap();
+    assert_eq!(
+        scene.set_transform(12, far),
+        Err(SceneError::NoSuchInstance {
+            instance: 12,
+            instances: 12
+        })
+    );
+    // One bad index in a batch of moves: nothing moves.
+    assert!(scene.set_transforms(&[(0, far), (99, far)]).is_err());
+    assert!(scene.set_mask(40, 0).is_err());
+    // Deformations: wrong count, NaN, a kind that cannot be refitted, a missing mesh.
+    let verts = meshes[0].vertices().to_vec();
+    assert_eq!(
+        scene.deform_mesh(0, verts[1..].to_vec()),
+        Err(SceneError::VertexCountChanged {
+            expected: verts.len(),
+            given: verts.len() - 1
+        })
+    );
+    let mut nan = verts.clone();
+    nan[3].y = f32::NAN;
+    assert_eq!(
+        scene.deform_mesh(0, nan),
+        Err(SceneError::Mesh(MeshError::NonFiniteVertex { vertex: 3 }))
+    );
+    assert_eq!(
+        scene.deform_mesh(1, meshes[1].vertices().to_vec()),
+        Err(SceneError::NotRefittable { kind: "zbt" })
+    );
+    assert!(matches!(
+        scene.deform_mesh(2, verts.clone()),
+        Err(SceneError::NoSuchMesh { .. })
+    ));
+    assert_matches(&scene, &meshes, &descs, &rays);
+}
+
+#[test]
+fn a_triangle_degenerate_at_build_refuses_a_refit_that_gives_it_an_area() {
+    let flat = Mesh::new(
+        vec![Vec3::ZERO, Vec3::X, Vec3::Y, Vec3::new(2.0, 0.0, 0.0)],
+        vec![[0, 1, 2], [0, 1, 3]],
+    )
+    .unwrap();
+    let tree = MeshTree::build(AccelKind::Aabb, flat, &BuildOptions::default()).unwrap();
+    let mut scene = Scene::new(vec![tree], &[InstanceDesc::new(0, Rigid::IDENTITY)]).unwrap();
+    let lifted = vec![Vec3::ZERO, Vec3::X, Vec3::Y, Vec3::new(2.0, 0.0, 1.0)];
+    assert_eq!(
+        scene.deform_mesh(0, lifted),
+        Err(SceneError::NewlyValidTriangle { triangle: 1 })
+    );
+    let hit = scene
+        .cast_ray(&Ray::new(Vec3::new(0.2, 0.2, -1.0), Vec3::Z))
+        .unwrap();
+    assert_eq!(hit.triangle, 0);
+}
