@@ -14,6 +14,7 @@ use crate::batch::BatchOptions;
 use crate::bvh::build::MAX_LEAF_SIZE;
 use crate::bvh::{AabbTree, BuildError, BuildOptions, QuantizedAabbTree};
 use crate::geom::{Kernel, Ray};
+use crate::grid::{GridOptions, UniformGrid};
 use crate::hit::Hit;
 use crate::mesh::Mesh;
 use crate::permuted::Permuted;
@@ -36,17 +37,20 @@ pub enum AccelKind {
     ZbtNoCache,
     /// [`HybridTree`]: stored boxes down to chunks of 32 triangles, zero-byte trees below.
     Hybrid,
+    /// [`UniformGrid`]: cells over the bounds walked by an exact 3D-DDA, mailboxed.
+    Grid,
 }
 
 impl AccelKind {
     /// Every kind.
-    pub const ALL: [AccelKind; 6] = [
+    pub const ALL: [AccelKind; 7] = [
         AccelKind::Aabb,
         AccelKind::Quantized,
         AccelKind::Bvh4,
         AccelKind::Zbt,
         AccelKind::ZbtNoCache,
         AccelKind::Hybrid,
+        AccelKind::Grid,
     ];
 
     /// The fastest exact structure on our measurements: the 4-wide tree answers single rays
@@ -64,6 +68,7 @@ impl AccelKind {
             AccelKind::Zbt => "zbt",
             AccelKind::ZbtNoCache => "zbt-nocache",
             AccelKind::Hybrid => "hybrid",
+            AccelKind::Grid => "grid",
         }
     }
 
@@ -76,6 +81,7 @@ impl AccelKind {
             AccelKind::Zbt => "zero-byte tree: no memory beside the mesh, box cache",
             AccelKind::ZbtNoCache => "zero-byte tree without the box cache",
             AccelKind::Hybrid => "AABB tree over zero-byte trees of 32-triangle chunks",
+            AccelKind::Grid => "uniform grid, exact 3D-DDA walk, mailboxes",
         }
     }
 
@@ -89,7 +95,7 @@ impl AccelKind {
             | AccelKind::Zbt
             | AccelKind::ZbtNoCache
             | AccelKind::Hybrid => true,
-            AccelKind::Bvh4 => false,
+            AccelKind::Bvh4 | AccelKind::Grid => false,
         }
     }
 
@@ -132,6 +138,7 @@ impl AccelKind {
                     HybridTree::build(Arc::unwrap_or_clone(mesh), &hybrid).map_err(too_large)?;
                 AnyAccel::new(Permuted::new(tree, permutation))
             }
+            AccelKind::Grid => AnyAccel::new(UniformGrid::build(mesh, &GridOptions::default())?),
         })
     }
 }

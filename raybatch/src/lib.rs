@@ -25,7 +25,7 @@
 //!   visitors), [`workspace`] (per-thread memory);
 //! - structures: [`bvh`] (binary BVHs: build, ordering, node formats), [`wide`] (the 4-wide
 //!   BVH collapsed from it), [`zbt`] (the zero-byte tree and its hybrid, no memory beside the
-//!   mesh);
+//!   mesh), [`grid`] (the uniform grid and the spatial hash, which split space);
 //! - engines: [`traverse`] (how a BVH walks one ray or a stream), [`batch`] (batch machinery);
 //! - adapters: [`permuted`] (a reordering structure answering in the original ids);
 //! - what users call: [`query`] (per-ray and batched queries, brute force), [`catalog`] (every
@@ -39,6 +39,7 @@ pub mod batch;
 pub mod bvh;
 pub mod catalog;
 pub mod geom;
+pub mod grid;
 pub mod hit;
 pub mod mesh;
 mod parallel;
@@ -57,6 +58,7 @@ pub use bvh::{AabbTree, BuildError, BuildOptions, Bvh, ChildOrdering, QuantizedA
 pub use catalog::{AccelKind, AnyAccel};
 pub use geom::{Aabb, Kernel, Ray, RayError};
 pub use glam;
+pub use grid::{GridOptions, UniformGrid};
 pub use hit::{Hit, Visitor};
 pub use mesh::{Mesh, MeshError};
 pub use query::{BatchError, BatchQueries, RayQueries};
