@@ -19,6 +19,10 @@ pub struct GridOptions {
     pub cells_per_triangle: f32,
     /// Largest number of cells (4 bytes each, plus the triangle references).
     pub max_cells: u32,
+    /// Cells along x, y and z, if given: overrides the density (still capped by
+    /// `max_cells`). For scenes whose best shape is not cube cells (a height field may want
+    /// fine cells across and few along its up axis): measure.
+    pub resolution: Option<[u32; 3]>,
 }
 
 impl Default for GridOptions {
@@ -26,6 +30,7 @@ impl Default for GridOptions {
         Self {
             cells_per_triangle: 2.0,
             max_cells: 1 << 24,
+            resolution: None,
         }
     }
 }
@@ -33,6 +38,9 @@ impl Default for GridOptions {
 /// Slabs per axis for `triangles` triangles in `bounds` (non-empty), at most `max_cells` in
 /// all.
 pub(crate) fn resolution(bounds: &Aabb, triangles: usize, options: &GridOptions) -> [u32; 3] {
+    if let Some(dims) = options.resolution {
+        return cap(dims.map(|d| d.max(1)), options.max_cells.max(1));
+    }
     let max_cells = options.max_cells.max(1) as f64;
     let density = f64::from(options.cells_per_triangle);
     let target = (density * triangles as f64).clamp(1.0, max_cells);
@@ -104,6 +112,7 @@ mod tests {
         let options = GridOptions {
             cells_per_triangle: 1e9,
             max_cells: 1000,
+            resolution: None,
         };
         let d = resolution(&Aabb::new(Vec3::ZERO, Vec3::ONE), 1 << 30, &options);
         assert!(

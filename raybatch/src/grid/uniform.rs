@@ -135,7 +135,7 @@ impl Accel for UniformGrid {
         if self.cells.is_empty() {
             return tmax;
         }
-        mailbox.next_ray(self.mesh.triangle_count());
+        mailbox.next_ray();
         walk(&self.planes, ray, &mut tmax, |cell, tmax| {
             let refs = self.cells.cell(cell);
             test_cell::<K, V>(&self.mesh, refs, ray, id, mailbox, tmax, visitor);
