@@ -16,6 +16,7 @@ use crate::bvh::{AabbTree, BuildError, BuildOptions, QuantizedAabbTree};
 use crate::geom::{Kernel, Ray};
 use crate::grid::{GridOptions, UniformGrid};
 use crate::hit::Hit;
+use crate::kdtree::KdTree;
 use crate::mesh::Mesh;
 use crate::permuted::Permuted;
 use crate::query::{BatchError, BatchQueries, RayQueries};
@@ -39,11 +40,13 @@ pub enum AccelKind {
     Hybrid,
     /// [`UniformGrid`]: cells over the bounds walked by an exact 3D-DDA, mailboxed.
     Grid,
+    /// [`KdTree`]: SAH kd-tree, 8-byte nodes, front-to-back walk, mailboxed.
+    Kd,
 }
 
 impl AccelKind {
     /// Every kind.
-    pub const ALL: [AccelKind; 7] = [
+    pub const ALL: [AccelKind; 8] = [
         AccelKind::Aabb,
         AccelKind::Quantized,
         AccelKind::Bvh4,
@@ -51,6 +54,7 @@ impl AccelKind {
         AccelKind::ZbtNoCache,
         AccelKind::Hybrid,
         AccelKind::Grid,
+        AccelKind::Kd,
     ];
 
     /// The fastest exact structure on our measurements: the 4-wide tree answers single rays
@@ -69,6 +73,7 @@ impl AccelKind {
             AccelKind::ZbtNoCache => "zbt-nocache",
             AccelKind::Hybrid => "hybrid",
             AccelKind::Grid => "grid",
+            AccelKind::Kd => "kd",
         }
     }
 
@@ -82,6 +87,7 @@ impl AccelKind {
             AccelKind::ZbtNoCache => "zero-byte tree without the box cache",
             AccelKind::Hybrid => "AABB tree over zero-byte trees of 32-triangle chunks",
             AccelKind::Grid => "uniform grid, exact 3D-DDA walk, mailboxes",
+            AccelKind::Kd => "SAH kd-tree, 8-byte nodes, front-to-back walk, mailboxes",
         }
     }
 
@@ -95,7 +101,7 @@ impl AccelKind {
             | AccelKind::Zbt
             | AccelKind::ZbtNoCache
             | AccelKind::Hybrid => true,
-            AccelKind::Bvh4 | AccelKind::Grid => false,
+            AccelKind::Bvh4 | AccelKind::Grid | AccelKind::Kd => false,
         }
     }
 
@@ -139,6 +145,7 @@ impl AccelKind {
                 AnyAccel::new(Permuted::new(tree, permutation))
             }
             AccelKind::Grid => AnyAccel::new(UniformGrid::build(mesh, &GridOptions::default())?),
+            AccelKind::Kd => AnyAccel::new(KdTree::build(mesh, options.max_leaf_size)?),
         })
     }
 }

@@ -25,7 +25,7 @@
 //!   visitors), [`workspace`] (per-thread memory);
 //! - structures: [`bvh`] (binary BVHs: build, ordering, node formats), [`wide`] (the 4-wide
 //!   BVH collapsed from it), [`zbt`] (the zero-byte tree and its hybrid, no memory beside the
-//!   mesh), [`grid`] (the uniform grid and the spatial hash, which split space);
+//!   mesh), [`grid`] (the uniform grid and the spatial hash) and [`kdtree`], which split space;
 //! - engines: [`traverse`] (how a BVH walks one ray or a stream), [`batch`] (batch machinery);
 //! - adapters: [`permuted`] (a reordering structure answering in the original ids);
 //! - what users call: [`query`] (per-ray and batched queries, brute force), [`catalog`] (every
@@ -41,6 +41,7 @@ pub mod catalog;
 pub mod geom;
 pub mod grid;
 pub mod hit;
+pub mod kdtree;
 pub mod mesh;
 mod parallel;
 pub mod permuted;
@@ -60,6 +61,7 @@ pub use geom::{Aabb, Kernel, Ray, RayError};
 pub use glam;
 pub use grid::{GridOptions, UniformGrid};
 pub use hit::{Hit, Visitor};
+pub use kdtree::KdTree;
 pub use mesh::{Mesh, MeshError};
 pub use query::{BatchError, BatchQueries, RayQueries};
 pub use wide::WideTree;

@@ -16,7 +16,7 @@ use raybatch::{
     AabbTree, Accel, AccelKind, BuildOptions, Hit, HybridTree, Kernel, Mesh, QuantizedAabbTree,
     Ray, RayQueries, Visitor, WideTree, ZeroByteTree,
 };
-use raybatch::{GridOptions, UniformGrid};
+use raybatch::{GridOptions, KdTree, UniformGrid};
 
 /// Keeps the first `n` hits it is shown, then ends the ray.
 struct FirstHits {
@@ -125,6 +125,11 @@ fn first_n_hits_visitor_on_every_structure() {
             AccelKind::Grid => check(
                 name,
                 &UniformGrid::build(mesh.clone(), &GridOptions::default()).unwrap(),
+                &rays,
+            ),
+            AccelKind::Kd => check(
+                name,
+                &KdTree::build(mesh.clone(), options.max_leaf_size).unwrap(),
                 &rays,
             ),
         }

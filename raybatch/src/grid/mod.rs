@@ -17,7 +17,7 @@ pub(crate) mod cells;
 pub mod mailbox;
 pub(crate) mod planes;
 pub mod sizing;
-mod uniform;
+pub(crate) mod uniform;
 pub(crate) mod walk;
 
 pub use mailbox::Mailbox;
