@@ -1,5 +1,5 @@
-//! The spatial structures' knobs, measured against the AABB tree: the grid's density (cells per
-//! triangle) on the ray sets of `raybatch bench` plus vertical rays (straight down from above
+//! The spatial structures' knobs, measured against the AABB tree: the kd-tree's leaf size, the
+//! grid's density (cells per triangle) and resolution, on the ray sets of `raybatch bench` plus vertical rays (straight down from above
 //! the bounds, the height field's typical query). One thread, per ray, Mrays/s; every
 //! variant's closest hits are checked against the AABB tree's (same triangle, same `t` bits).
 //!
@@ -9,7 +9,8 @@ use std::time::Instant;
 
 use raybatch::glam::Vec3;
 use raybatch::{
-    AabbTree, Accel, BuildOptions, Footprint, GridOptions, Hit, Mesh, Ray, RayQueries, UniformGrid,
+    AabbTree, Accel, BuildOptions, Footprint, GridOptions, Hit, KdTree, Mesh, Ray, RayQueries,
+    UniformGrid,
 };
 use raybatch_tools::scenes::{self, RaySet, SplitMix64};
 
@@ -56,6 +57,20 @@ fn main() {
         let reference: Vec<(Vec<Option<Hit>>, f64)> =
             sets.iter().map(|(_, rays)| measure(&aabb, rays)).collect();
         row("aabb", ms, &aabb, &reference, &reference);
+        for leaf in [1, 4] {
+            let start = Instant::now();
+            let kd = KdTree::build(scene.mesh.clone(), leaf).unwrap();
+            let ms = ms_since(start);
+            let m: Vec<_> = sets.iter().map(|(_, rays)| measure(&kd, rays)).collect();
+            check(&reference, &m);
+            row(
+                &format!("kd leaf {leaf}, depth {}", kd.depth()),
+                ms,
+                &kd,
+                &m,
+                &reference,
+            );
+        }
         for density in [1.0, 4.0] {
             let options = GridOptions {
                 cells_per_triangle: density,

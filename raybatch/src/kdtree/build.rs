@@ -19,7 +19,7 @@ use super::node::{KdNode, MAX_INDEX};
 /// Bins per axis for the SAH.
 pub(crate) const BINS: usize = 32;
 /// Cost of one traversal step relative to one triangle test.
-const TRAVERSAL: f32 = 1.0;
+const TRAVERSAL: f32 = 2.0;
 
 /// How deep the tree may go: `8 + 1.3 log2(n)` (Havran's rule), at most 64.
 pub(crate) fn max_depth(triangles: usize) -> usize {
