@@ -14,7 +14,9 @@ use crate::batch::BatchOptions;
 use crate::bvh::build::MAX_LEAF_SIZE;
 use crate::bvh::{AabbTree, BuildError, BuildOptions, QuantizedAabbTree};
 use crate::geom::{Kernel, Ray};
+use crate::grid::{GridOptions, UniformGrid};
 use crate::hit::Hit;
+use crate::kdtree::KdTree;
 use crate::mesh::Mesh;
 use crate::permuted::Permuted;
 use crate::query::{BatchError, BatchQueries, RayQueries};
@@ -36,17 +38,23 @@ pub enum AccelKind {
     ZbtNoCache,
     /// [`HybridTree`]: stored boxes down to chunks of 32 triangles, zero-byte trees below.
     Hybrid,
+    /// [`UniformGrid`]: cells over the bounds walked by an exact 3D-DDA, mailboxed.
+    Grid,
+    /// [`KdTree`]: SAH kd-tree, 8-byte nodes, front-to-back walk, mailboxed.
+    Kd,
 }
 
 impl AccelKind {
     /// Every kind.
-    pub const ALL: [AccelKind; 6] = [
+    pub const ALL: [AccelKind; 8] = [
         AccelKind::Aabb,
         AccelKind::Quantized,
         AccelKind::Bvh4,
         AccelKind::Zbt,
         AccelKind::ZbtNoCache,
         AccelKind::Hybrid,
+        AccelKind::Grid,
+        AccelKind::Kd,
     ];
 
     /// The fastest exact structure on our measurements: the 4-wide tree answers single rays
@@ -64,6 +72,8 @@ impl AccelKind {
             AccelKind::Zbt => "zbt",
             AccelKind::ZbtNoCache => "zbt-nocache",
             AccelKind::Hybrid => "hybrid",
+            AccelKind::Grid => "grid",
+            AccelKind::Kd => "kd",
         }
     }
 
@@ -76,6 +86,8 @@ impl AccelKind {
             AccelKind::Zbt => "zero-byte tree: no memory beside the mesh, box cache",
             AccelKind::ZbtNoCache => "zero-byte tree without the box cache",
             AccelKind::Hybrid => "AABB tree over zero-byte trees of 32-triangle chunks",
+            AccelKind::Grid => "uniform grid, exact 3D-DDA walk, mailboxes",
+            AccelKind::Kd => "SAH kd-tree, 8-byte nodes, front-to-back walk, mailboxes",
         }
     }
 
@@ -89,7 +101,7 @@ impl AccelKind {
             | AccelKind::Zbt
             | AccelKind::ZbtNoCache
             | AccelKind::Hybrid => true,
-            AccelKind::Bvh4 => false,
+            AccelKind::Bvh4 | AccelKind::Grid | AccelKind::Kd => false,
         }
     }
 
@@ -132,6 +144,8 @@ impl AccelKind {
                     HybridTree::build(Arc::unwrap_or_clone(mesh), &hybrid).map_err(too_large)?;
                 AnyAccel::new(Permuted::new(tree, permutation))
             }
+            AccelKind::Grid => AnyAccel::new(UniformGrid::build(mesh, &GridOptions::default())?),
+            AccelKind::Kd => AnyAccel::new(KdTree::build(mesh, options.max_leaf_size)?),
         })
     }
 }

@@ -25,7 +25,7 @@
 //!   visitors), [`workspace`] (per-thread memory);
 //! - structures: [`bvh`] (binary BVHs: build, ordering, node formats), [`wide`] (the 4-wide
 //!   BVH collapsed from it), [`zbt`] (the zero-byte tree and its hybrid, no memory beside the
-//!   mesh);
+//!   mesh), [`grid`] (the uniform grid and the spatial hash) and [`kdtree`], which split space;
 //! - engines: [`traverse`] (how a BVH walks one ray or a stream), [`batch`] (batch machinery);
 //! - adapters: [`permuted`] (a reordering structure answering in the original ids), [`scene`]
 //!   (many meshes placed as instances, answering in world space);
@@ -41,7 +41,9 @@ pub mod batch;
 pub mod bvh;
 pub mod catalog;
 pub mod geom;
+pub mod grid;
 pub mod hit;
+pub mod kdtree;
 pub mod mesh;
 mod parallel;
 pub mod permuted;
@@ -62,7 +64,9 @@ pub use bvh::{AabbTree, BuildError, BuildOptions, Bvh, ChildOrdering, QuantizedA
 pub use catalog::{AccelKind, AnyAccel};
 pub use geom::{Aabb, Kernel, Ray, RayError};
 pub use glam;
+pub use grid::{GridOptions, UniformGrid};
 pub use hit::{Hit, Visitor};
+pub use kdtree::KdTree;
 pub use mesh::{Mesh, MeshError};
 pub use query::{BatchError, BatchQueries, RayQueries};
 pub use scene::{InstanceDesc, MeshTree, Rigid, Scene, SceneError, SceneHit};

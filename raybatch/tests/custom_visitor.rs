@@ -16,6 +16,7 @@ use raybatch::{
     AabbTree, Accel, AccelKind, BuildOptions, Hit, HybridTree, Kernel, Mesh, QuantizedAabbTree,
     Ray, RayQueries, Visitor, WideTree, ZeroByteTree,
 };
+use raybatch::{GridOptions, KdTree, UniformGrid};
 
 /// Keeps the first `n` hits it is shown, then ends the ray.
 struct FirstHits {
@@ -121,6 +122,16 @@ fn first_n_hits_visitor_on_every_structure() {
                 let (tree, _) = HybridTree::build(mesh.clone(), &Default::default()).unwrap();
                 check(name, &tree, &rays)
             }
+            AccelKind::Grid => check(
+                name,
+                &UniformGrid::build(mesh.clone(), &GridOptions::default()).unwrap(),
+                &rays,
+            ),
+            AccelKind::Kd => check(
+                name,
+                &KdTree::build(mesh.clone(), options.max_leaf_size).unwrap(),
+                &rays,
+            ),
         }
     }
 }

@@ -19,6 +19,7 @@ use raybatch::{
     ChildOrdering, Footprint, Hit, HybridTree, Kernel, Mesh, QuantizedAabbTree, Ray, RayQueries,
     WideTree, ZeroByteTree,
 };
+use raybatch::{GridOptions, KdTree, UniformGrid};
 
 /// Every hit of a batch as sorted `(ray index, hit bits)`.
 fn sorted_batch_hits(each: impl FnOnce(&(dyn Fn(usize, Hit) + Sync))) -> Vec<(usize, HitBits)> {
@@ -195,6 +196,14 @@ fn typed_queries_match_any_accel() {
                         };
                         let (tree, perm) = HybridTree::build((*mesh).clone(), &hybrid).unwrap();
                         compare_typed(&name, &Permuted::new(tree, perm), &any, &rays)
+                    }
+                    AccelKind::Grid => {
+                        let typed = UniformGrid::build(mesh, &GridOptions::default()).unwrap();
+                        compare_typed(&name, &typed, &any, &rays)
+                    }
+                    AccelKind::Kd => {
+                        let typed = KdTree::build(mesh, leaf).unwrap();
+                        compare_typed(&name, &typed, &any, &rays)
                     }
                 };
                 if let Err(e) = result {

@@ -1,0 +1,25 @@
+//! Spatial subdivision by cells (seed 004): the uniform grid walked along the ray with a
+//! 3D-DDA, and the spatial hash that walks the same cells without storing the empty ones.
+//!
+//! Unlike the BVHs, which split the triangles, these split space: a triangle is stored in
+//! every cell its box overlaps, and a ray visits the cells it crosses in order, front to back,
+//! so a closest-hit search stops at the first cell that cannot hold anything nearer.
+//!
+//! - `planes`: the exact plane coordinates the build and the walk share;
+//! - [`sizing`]: how many cells ([`GridOptions`]);
+//! - `cells`: the compact storage (one offset per cell, one reference array);
+//! - `walk`: the exact 3D-DDA (the argument for exactness is in its docs);
+//! - [`mailbox`]: per-thread stamps, so a triangle in several cells is tested once per ray;
+//! - `uniform`: [`UniformGrid`], the dense grid;
+//! - `hash`: [`SpatialHash`], the sparse grid.
+
+pub(crate) mod cells;
+pub mod mailbox;
+pub(crate) mod planes;
+pub mod sizing;
+pub(crate) mod uniform;
+pub(crate) mod walk;
+
+pub use mailbox::Mailbox;
+pub use sizing::GridOptions;
+pub use uniform::UniformGrid;

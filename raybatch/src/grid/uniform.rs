@@ -1,0 +1,163 @@
+//! [`UniformGrid`]: cells over the mesh's bounds, every cell stored (an offset each).
+
+use std::sync::Arc;
+
+use crate::accel::{Accel, Footprint};
+use crate::bvh::BuildError;
+use crate::geom::{Aabb, PreparedRay, TriangleTest};
+use crate::hit::Visitor;
+use crate::mesh::Mesh;
+use crate::traverse::single::test_triangles;
+
+use super::cells::{Cells, blocks, grid_planes};
+use super::mailbox::{Mailbox, SHARED};
+use super::sizing::{GridOptions, cap, resolution};
+use super::walk::{GridPlanes, walk};
+
+/// A triangle is stored at most this many times on average; a finer grid is coarsened until
+/// it fits (large triangles in a fine grid would otherwise fill memory).
+const REFERENCES_PER_TRIANGLE: u64 = 16;
+
+/// A uniform grid over a mesh (see the [module docs](super)): cells of one size, each holding
+/// the triangles whose boxes overlap it, walked front to back by an exact 3D-DDA.
+#[derive(Clone, Debug)]
+pub struct UniformGrid {
+    mesh: Arc<Mesh>,
+    planes: GridPlanes,
+    cells: Cells,
+}
+
+impl UniformGrid {
+    /// Builds the grid. An empty mesh (or one of degenerate triangles only) gives a grid every
+    /// ray misses; a mesh of more than `2^31 - 1` triangles is too large (cell references
+    /// keep one bit for the mailbox).
+    pub fn build(mesh: impl Into<Arc<Mesh>>, options: &GridOptions) -> Result<Self, BuildError> {
+        let mesh = mesh.into();
+        let (live, bounds) = live_triangles(&mesh)?;
+        if live.is_empty() {
+            let planes = grid_planes(&Aabb::new(bounds.min, bounds.min), [1; 3]);
+            return Ok(Self {
+                mesh,
+                planes,
+                cells: Cells::default(),
+            });
+        }
+        let mut dims = resolution(&bounds, live.len(), options);
+        let max_refs = REFERENCES_PER_TRIANGLE * live.len() as u64;
+        loop {
+            let planes = grid_planes(&bounds, dims);
+            let blocks = blocks(&mesh, &live, &planes);
+            match Cells::build(dims, &live, &blocks, max_refs) {
+                Ok(cells) => {
+                    return Ok(Self {
+                        mesh,
+                        planes,
+                        cells,
+                    });
+                }
+                // One cell needs exactly one reference per triangle: this ends.
+                Err(_) => dims = cap(dims, (cell_count(dims) / 2).max(1) as u32),
+            }
+        }
+    }
+
+    /// The mesh the grid was built over; triangle ids refer to it.
+    pub fn mesh(&self) -> &Mesh {
+        &self.mesh
+    }
+
+    /// Cells along x, y and z.
+    pub fn resolution(&self) -> [u32; 3] {
+        self.planes.each_ref().map(|p| p.slabs())
+    }
+
+    /// Triangle references stored in the cells (a triangle counts once per cell).
+    pub fn reference_count(&self) -> usize {
+        self.cells.reference_count()
+    }
+}
+
+/// Cells of a `dims` grid.
+fn cell_count(dims: [u32; 3]) -> u64 {
+    dims.iter().map(|&d| u64::from(d)).product()
+}
+
+/// The ids of the non-degenerate triangles and the box around them (empty if none); fails if
+/// the ids do not leave the mailbox bit free.
+pub(crate) fn live_triangles(mesh: &Mesh) -> Result<(Vec<u32>, Aabb), BuildError> {
+    let max = SHARED as usize - 1;
+    if mesh.triangle_count() > max {
+        return Err(BuildError::TooLarge {
+            format: "grid (31-bit triangle references)",
+            needed: mesh.triangle_count(),
+            max,
+        });
+    }
+    let live: Vec<u32> = (0..mesh.triangle_count() as u32)
+        .filter(|&id| !mesh.is_degenerate(id))
+        .collect();
+    let bounds = live.iter().fold(Aabb::EMPTY, |b, &id| {
+        b.union(Aabb::from_points(&mesh.triangle(id)))
+    });
+    Ok((live, bounds))
+}
+
+/// Tests the triangles of one cell's references `refs` that the ray has not met yet; true if
+/// the visitor ended the ray. Shared by the dense and the sparse grid.
+#[inline(always)]
+pub(crate) fn test_cell<K: TriangleTest, V: Visitor>(
+    mesh: &Mesh,
+    refs: &[u32],
+    ray: &PreparedRay,
+    id: u32,
+    mailbox: &mut Mailbox,
+    tmax: &mut f32,
+    visitor: &mut V,
+) -> bool {
+    let triangles = refs.iter().filter(|&&r| mailbox.first_visit(r)).map(|&r| {
+        let triangle = r & !SHARED;
+        (triangle, mesh.triangle(triangle))
+    });
+    test_triangles::<K, V>(ray, id, triangles, tmax, visitor)
+}
+
+impl Accel for UniformGrid {
+    type Scratch = Mailbox;
+
+    fn trace<K: TriangleTest, V: Visitor>(
+        &self,
+        ray: &PreparedRay,
+        id: u32,
+        mailbox: &mut Mailbox,
+        visitor: &mut V,
+    ) -> f32 {
+        let mut tmax = ray.tmax;
+        if self.cells.is_empty() {
+            return tmax;
+        }
+        mailbox.next_ray();
+        walk(&self.planes, ray, &mut tmax, |cell, tmax| {
+            let refs = self.cells.cell(cell);
+            test_cell::<K, V>(&self.mesh, refs, ray, id, mailbox, tmax, visitor);
+        });
+        tmax
+    }
+}
+
+impl Footprint for UniformGrid {
+    fn name(&self) -> &'static str {
+        "grid"
+    }
+
+    fn triangle_count(&self) -> usize {
+        self.mesh.triangle_count()
+    }
+
+    fn node_count(&self) -> usize {
+        self.cells.len()
+    }
+
+    fn heap_bytes(&self) -> usize {
+        self.cells.heap_bytes() + self.planes.iter().map(|p| p.heap_bytes()).sum::<usize>()
+    }
+}

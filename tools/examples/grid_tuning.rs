@@ -1,0 +1,167 @@
+//! The spatial structures' knobs, measured against the AABB tree: the kd-tree's leaf size, the
+//! grid's density (cells per triangle) and resolution, on the ray sets of `raybatch bench` plus vertical rays (straight down from above
+//! the bounds, the height field's typical query). One thread, per ray, Mrays/s; every
+//! variant's closest hits are checked against the AABB tree's (same triangle, same `t` bits).
+//!
+//! `cargo run --release -p raybatch-tools --example grid_tuning [-- bunny|terrain|city [RAYS]]`
+
+use std::time::Instant;
+
+use raybatch::glam::Vec3;
+use raybatch::{
+    AabbTree, Accel, BuildOptions, Footprint, GridOptions, Hit, KdTree, Mesh, Ray, RayQueries,
+    UniformGrid,
+};
+use raybatch_tools::scenes::{self, RaySet, SplitMix64};
+
+fn main() {
+    let mut args = std::env::args().skip(1);
+    let scene = match args.next().as_deref() {
+        None | Some("terrain") => scenes::terrain(scenes::BUILTIN_TERRAIN_CELLS),
+        Some("bunny") => scenes::bunny(),
+        Some("city") => scenes::city(scenes::BUILTIN_CITY_BLOCKS),
+        Some(other) => panic!("unknown scene {other}: bunny, terrain or city"),
+    };
+    let count: usize = args
+        .next()
+        .map_or(100_000, |n| n.parse().expect("a ray count"));
+    let sets: Vec<(&str, Vec<Ray>)> = [RaySet::Incoherent, RaySet::Camera, RaySet::Short]
+        .into_iter()
+        .map(|s| {
+            (
+                s.name(),
+                scenes::generate(s, &scene.mesh, scene.kind, count, 7),
+            )
+        })
+        .chain([("vertical", vertical_rays(&scene.mesh, count))])
+        .collect();
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(1)
+        .build()
+        .unwrap();
+    println!(
+        "{} ({} triangles), {count} rays per set, closest hit, one thread, Mrays/s (ratio to aabb)\n",
+        scene.name,
+        scene.mesh.triangle_count()
+    );
+    let names: Vec<&str> = sets.iter().map(|(n, _)| *n).collect();
+    println!(
+        "| variant | build ms | B/tri | cells | {} |",
+        names.join(" | ")
+    );
+    println!("|---|---|---|---|{}", "---|".repeat(names.len()));
+    pool.install(|| {
+        let start = Instant::now();
+        let aabb: AabbTree = AabbTree::build(scene.mesh.clone(), &BuildOptions::default()).unwrap();
+        let ms = ms_since(start);
+        let reference: Vec<(Vec<Option<Hit>>, f64)> =
+            sets.iter().map(|(_, rays)| measure(&aabb, rays)).collect();
+        row("aabb", ms, &aabb, &reference, &reference);
+        for leaf in [1, 4] {
+            let start = Instant::now();
+            let kd = KdTree::build(scene.mesh.clone(), leaf).unwrap();
+            let ms = ms_since(start);
+            let m: Vec<_> = sets.iter().map(|(_, rays)| measure(&kd, rays)).collect();
+            check(&reference, &m);
+            row(
+                &format!("kd leaf {leaf}, depth {}", kd.depth()),
+                ms,
+                &kd,
+                &m,
+                &reference,
+            );
+        }
+        for density in [1.0, 4.0] {
+            let options = GridOptions {
+                cells_per_triangle: density,
+                ..GridOptions::default()
+            };
+            let start = Instant::now();
+            let grid = UniformGrid::build(scene.mesh.clone(), &options).unwrap();
+            let ms = ms_since(start);
+            let m: Vec<_> = sets.iter().map(|(_, rays)| measure(&grid, rays)).collect();
+            check(&reference, &m);
+            let name = format!("grid {density} cells/tri {:?}", grid.resolution());
+            row(&name, ms, &grid, &m, &reference);
+        }
+        let extent = scene.mesh.bounds().extent();
+        for (across, up) in [(708, 8), (708, 24), (500, 8), (500, 24), (1000, 16)] {
+            // Fine cells across the scene's two largest axes, `up` along the smallest.
+            let small = (0..3)
+                .min_by(|&a, &b| extent[a].total_cmp(&extent[b]))
+                .unwrap();
+            let mut resolution = [across; 3];
+            resolution[small] = up;
+            let options = GridOptions {
+                resolution: Some(resolution),
+                ..GridOptions::default()
+            };
+            let start = Instant::now();
+            let grid = UniformGrid::build(scene.mesh.clone(), &options).unwrap();
+            let ms = ms_since(start);
+            let m: Vec<_> = sets.iter().map(|(_, rays)| measure(&grid, rays)).collect();
+            check(&reference, &m);
+            let name = format!("grid {resolution:?}");
+            row(&name, ms, &grid, &m, &reference);
+        }
+    });
+}
+
+/// Rays straight down from above the bounds at uniform random `x`, `z`.
+fn vertical_rays(mesh: &Mesh, count: usize) -> Vec<Ray> {
+    let b = mesh.bounds();
+    let mut rng = SplitMix64::new(99);
+    (0..count)
+        .map(|_| {
+            let x = b.min.x + rng.next_f32() * (b.max.x - b.min.x);
+            let z = b.min.z + rng.next_f32() * (b.max.z - b.min.z);
+            Ray::new(Vec3::new(x, b.max.y + 1.0, z), -Vec3::Y)
+        })
+        .collect()
+}
+
+/// Closest hits of every ray and Mrays/s (best of two passes).
+fn measure<A: Accel>(accel: &A, rays: &[Ray]) -> (Vec<Option<Hit>>, f64) {
+    let mut best = 0.0f64;
+    let mut hits = Vec::new();
+    for _ in 0..2 {
+        let start = Instant::now();
+        hits = rays.iter().map(|r| accel.cast_ray(r)).collect();
+        best = best.max(rays.len() as f64 / start.elapsed().as_secs_f64() / 1e6);
+    }
+    (hits, best)
+}
+
+/// Panics unless every closest hit equals the reference's, bit for bit.
+fn check(reference: &[(Vec<Option<Hit>>, f64)], m: &[(Vec<Option<Hit>>, f64)]) {
+    for ((a, _), (b, _)) in reference.iter().zip(m) {
+        for (i, (x, y)) in a.iter().zip(b).enumerate() {
+            let bits = |h: &Option<Hit>| h.map(|h| (h.triangle, h.t.to_bits(), h.u.to_bits()));
+            assert_eq!(bits(x), bits(y), "ray {i}");
+        }
+    }
+}
+
+fn row<A: Footprint>(
+    name: &str,
+    ms: f64,
+    accel: &A,
+    m: &[(Vec<Option<Hit>>, f64)],
+    reference: &[(Vec<Option<Hit>>, f64)],
+) {
+    let speeds: Vec<String> = m
+        .iter()
+        .zip(reference)
+        .map(|((_, s), (_, r))| format!("{s:.2} ({:.2}x)", s / r))
+        .collect();
+    println!(
+        "| {name} | {ms:.0} | {:.1} | {} | {} |",
+        accel.bytes_per_triangle(),
+        accel.node_count(),
+        speeds.join(" | ")
+    );
+}
+
+fn ms_since(start: Instant) -> f64 {
+    start.elapsed().as_secs_f64() * 1e3
+}
