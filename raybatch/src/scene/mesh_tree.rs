@@ -15,7 +15,9 @@ use crate::bvh::build::MAX_LEAF_SIZE;
 use crate::bvh::{AabbTree, BuildError, BuildOptions, QuantizedAabbTree};
 use crate::catalog::{AccelKind, too_large};
 use crate::geom::{Aabb, PreparedRay, TriangleTest};
+use crate::grid::{GridOptions, UniformGrid};
 use crate::hit::Visitor;
+use crate::kdtree::KdTree;
 use crate::mesh::Mesh;
 use crate::permuted::Permuted;
 use crate::scene::error::SceneError;
@@ -45,6 +47,8 @@ enum Tree {
     Wide(WideTree),
     Zbt(Permuted<ZeroByteTree>),
     Hybrid(Permuted<HybridTree>),
+    Grid(UniformGrid),
+    Kd(KdTree),
 }
 
 /// Every tree kind's per-thread scratch, side by side.
@@ -55,6 +59,8 @@ pub struct MeshTreeScratch {
     wide: <WideTree as Accel>::Scratch,
     zbt: <ZeroByteTree as Accel>::Scratch,
     hybrid: <HybridTree as Accel>::Scratch,
+    grid: <UniformGrid as Accel>::Scratch,
+    kd: <KdTree as Accel>::Scratch,
 }
 
 impl MeshTree {
@@ -93,6 +99,8 @@ impl MeshTree {
                     HybridTree::build(Arc::unwrap_or_clone(mesh), &hybrid).map_err(too_large)?;
                 Tree::Hybrid(Permuted::new(tree, order))
             }
+            AccelKind::Grid => Tree::Grid(UniformGrid::build(mesh, &GridOptions::default())?),
+            AccelKind::Kd => Tree::Kd(KdTree::build(mesh, options.max_leaf_size)?),
         };
         Ok(Self { tree, kind, bounds })
     }
@@ -155,6 +163,14 @@ macro_rules! with_tree {
                 let $s = &mut $scratch.hybrid;
                 $body
             }
+            Tree::Grid($t) => {
+                let $s = &mut $scratch.grid;
+                $body
+            }
+            Tree::Kd($t) => {
+                let $s = &mut $scratch.kd;
+                $body
+            }
         }
     };
 }
@@ -211,6 +227,8 @@ impl MeshTree {
             Tree::Wide(t) => t,
             Tree::Zbt(t) => t,
             Tree::Hybrid(t) => t,
+            Tree::Grid(t) => t,
+            Tree::Kd(t) => t,
         }
     }
 }
