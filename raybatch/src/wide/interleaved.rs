@@ -15,11 +15,12 @@
 
 use super::WideTree;
 use super::node::WideRay;
-use super::single::{prefetch_node, step};
+use super::single::step;
 use crate::accel::RayStream;
 use crate::bvh::nodes::leaf_word;
 use crate::geom::{PreparedRay, TriangleTest};
 use crate::hit::Visitor;
+use crate::prefetch::prefetch;
 
 /// Rays walked side by side: enough turns between two turns of one ray to cover a miss to
 /// memory (a turn is some 100 instructions), few enough that their states stay in L1.
@@ -156,4 +157,12 @@ fn prefetch_leaf(tree: &WideTree, word: u32, stage: u8) -> u8 {
     } else {
         stage + 1
     }
+}
+
+/// Prefetches both cache lines of node `index`.
+#[inline(always)]
+fn prefetch_node(tree: &WideTree, index: u32) {
+    let node = &tree.nodes[index as usize];
+    prefetch(node);
+    prefetch(&node.bounds[4]);
 }

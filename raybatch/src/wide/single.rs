@@ -8,7 +8,6 @@ use super::node::WideRay;
 use crate::bvh::nodes::leaf_word;
 use crate::geom::{PreparedRay, TriangleTest};
 use crate::hit::Visitor;
-use crate::prefetch::prefetch;
 use crate::traverse::single::test_triangles;
 
 /// Traces `ray` (number `id`) through the whole tree; returns the final range end.
@@ -72,26 +71,17 @@ pub(crate) fn step<K: TriangleTest, V: Visitor>(
         let node = &tree.nodes[item as usize];
         let (mask, entries) = wide_ray.hits(node, *tmax);
         if mask != 0 {
-            let pushed = stack.len();
-            let nearest = nearest_pushing_others(mask, entries.to_array(), &node.child, stack);
-            // The pushed children are visited later, if at all: fetch their nodes meanwhile.
-            for &(word, _) in &stack[pushed..] {
-                if !leaf_word::is_leaf(word) {
-                    prefetch_node(tree, word);
-                }
-            }
-            return Some(nearest);
+            // (Prefetching the pushed children's nodes here was measured slower: 366 vs 332 ms
+            // on 1M bunny rays, 228 vs 218 on the teapot, best of 12 passes.)
+            return Some(nearest_pushing_others(
+                mask,
+                entries.to_array(),
+                &node.child,
+                stack,
+            ));
         }
     }
     pop_in_front(stack, *tmax)
-}
-
-/// Prefetches both cache lines of node `index`.
-#[inline(always)]
-pub(crate) fn prefetch_node(tree: &WideTree, index: u32) {
-    let node = &tree.nodes[index as usize];
-    prefetch(node);
-    prefetch(&node.bounds[4]);
 }
 
 /// Pops pending children until one lies in front of the best hit (`<=`, for the tie rule).
