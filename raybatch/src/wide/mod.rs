@@ -158,9 +158,10 @@ impl Accel for WideTree {
 /// [`Interleave::Auto`] interleaves rays above this many bytes of nodes, leaf order and mesh.
 /// Below it the tree mostly stays in cache and sharing nodes does less work; far above it each
 /// ray waits on memory at most nodes, and walking rays side by side hides the wait. Measured
-/// (one thread, best of 4 runs of 500k incoherent rays, split vs interleaved): teapot (0.3 MB)
-/// 182 vs 251 ms on 1M rays; bunny (3.8 MB) 239 vs 189 in one run, 242 vs 296 in another (the
-/// crossover); city (4.7 MB) 220 vs 206; terrain (52 MB) 636 vs 250 (README, speed).
+/// (one thread, best of 4 runs, nodes shared vs interleaved): teapot (0.3 MB) 182 vs 251 ms on
+/// 1M rays (`raybatch query --passes 3`); with `cargo run --release -p raybatch-tools --example
+/// interleave -- SCENE` on 500k rays: bunny (4.0 MB) at the crossover (239 vs 189 ms in one
+/// run, 242 vs 296 on 1M rays in another), city (4.9 MB) 220 vs 206, terrain (54 MB) 636 vs 250.
 const INTERLEAVE_ABOVE_BYTES: usize = 4 << 20;
 
 impl WideTree {
