@@ -238,7 +238,11 @@ fn stream_instance<A: SceneMesh, K: TriangleTest, V: Visitor>(
         inner,
         ..
     } = scratch;
-    lanes.reset(active);
+    // Grow only: the lanes past the stream's end are never read, and shrinking would make the
+    // next visit clear them again.
+    if lanes.len() < active {
+        lanes.reset(active);
+    }
     outer.clear();
     for i in 0..active {
         let ray = stream.ray(i);
@@ -251,7 +255,6 @@ fn stream_instance<A: SceneMesh, K: TriangleTest, V: Visitor>(
     if n == 0 {
         return;
     }
-    lanes.reset(n);
     let mut local = RayStream::new(lanes, 0, n, 0, stream.partitioner, stream.options);
     let mut visitor = ToGlobal {
         first: instance.first_id,
