@@ -93,3 +93,33 @@ fn full_unflushed_and_stale_tickets_are_errors() {
     queue.flush(&scene).unwrap();
     assert_eq!(queue.visible(c), Ok(true));
 }
+
+#[test]
+fn lists_submitted_at_once_get_consecutive_tickets() {
+    let scene = world();
+    let mut queue = LosQueue::with_capacity(10);
+    let rays: Vec<Ray> = (0..4)
+        .map(|i| {
+            Ray::segment(
+                Vec3::new(-9.0, i as f32 * 3.0 - 4.5, 0.0),
+                Vec3::new(9.0, i as f32 * 3.0 - 4.5, 0.0),
+            )
+        })
+        .collect();
+    let single = queue
+        .submit(Vec3::new(0.0, 0.0, 5.0), Vec3::new(0.0, 0.0, 9.0))
+        .unwrap();
+    let first = queue.submit_all(&rays).unwrap();
+    assert_eq!(first.index(), 1);
+    // Too many for the room left: refused whole, nothing taken.
+    assert_eq!(
+        queue.submit_all(&[rays[0]; 6]),
+        Err(QueueError::Full { capacity: 10 })
+    );
+    assert_eq!(queue.len(), 5);
+    assert_eq!(queue.flush(&scene), Ok(5));
+    assert_eq!(queue.visible(single), Ok(true));
+    for (k, ray) in rays.iter().enumerate() {
+        assert_eq!(queue.visible(first.offset(k)), Ok(!scene.occluded(ray)));
+    }
+}

@@ -286,3 +286,29 @@ fn a_triangle_degenerate_at_build_refuses_a_refit_that_gives_it_an_area() {
         .unwrap();
     assert_eq!(hit.triangle, 0);
 }
+
+/// A scene over one concrete tree type (no enum dispatch) answers as brute force too.
+#[test]
+fn a_scene_of_one_tree_type() {
+    let meshes = vec![icosphere(2)];
+    let descs: Vec<InstanceDesc> = (0..6)
+        .map(|i| {
+            let r = Quat::from_rotation_x(i as f32 * 0.9);
+            InstanceDesc::new(
+                0,
+                Rigid::new(r, Vec3::new(i as f32 - 2.5, 0.5, 0.0)).unwrap(),
+            )
+        })
+        .collect();
+    let tree = raybatch::AabbTree::build(meshes[0].clone(), &BuildOptions::default()).unwrap();
+    let scene: Scene<raybatch::AabbTree> = Scene::new(vec![tree], &descs).unwrap();
+    let options = BatchOptions::default().with_min_batch(0);
+    let rays = sphere_rays(300, 17);
+    let mut hits = vec![None; rays.len()];
+    scene.cast_rays_with(&rays, &mut hits, &options).unwrap();
+    for (ray, hit) in rays.iter().zip(&hits) {
+        let r = scene_brute_force(&meshes, &descs, ray, Kernel::Watertight, u32::MAX);
+        assert_eq!(opt_bits(scene.cast_ray(ray)), opt_bits(r.closest));
+        assert_eq!(opt_bits(*hit), opt_bits(r.closest));
+    }
+}

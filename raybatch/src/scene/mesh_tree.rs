@@ -12,7 +12,7 @@ use glam::Vec3;
 
 use crate::accel::{Accel, Footprint, RayStream};
 use crate::bvh::build::MAX_LEAF_SIZE;
-use crate::bvh::{AabbTree, BuildError, BuildOptions, QuantizedAabbTree};
+use crate::bvh::{AabbTree, BuildError, BuildOptions, Bvh, QuantizedAabbTree};
 use crate::catalog::{AccelKind, too_large};
 use crate::geom::{Aabb, PreparedRay, TriangleTest};
 use crate::grid::{GridOptions, UniformGrid};
@@ -134,8 +134,14 @@ impl SceneMesh for MeshTree {
 }
 
 impl SceneMesh for AabbTree {
+    /// The root's box: it holds every triangle the tree can report (degenerate triangles,
+    /// never reported, are left out of the tree).
     fn mesh_bounds(&self) -> Aabb {
-        self.mesh().bounds()
+        if Bvh::is_empty(self) {
+            Aabb::EMPTY
+        } else {
+            self.root_bounds(&mut ())
+        }
     }
 }
 

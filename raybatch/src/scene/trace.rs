@@ -14,8 +14,10 @@
 //! back. Both paths trace the same mesh-space rays with the same kernels and report global ids
 //! to the same visitors, so batched answers equal per-ray answers bit for bit.
 
+use glam::Vec3;
+
 use crate::accel::{Accel, Footprint, RayStream};
-use crate::batch::lanes::Lanes;
+use crate::batch::lanes::{Lanes, OX, OY, OZ};
 use crate::geom::{PreparedRay, TriangleTest};
 use crate::hit::{Hit, Visitor};
 use crate::scene::filter::SceneView;
@@ -152,10 +154,7 @@ fn trace_stream<A: SceneMesh, K: TriangleTest, V: Visitor>(
     if nodes.is_empty() || stream.is_empty() {
         return;
     }
-    // One padding for the whole stream: the largest any of its rays needs.
-    let pad = (0..stream.len())
-        .map(|i| ray_pad(stream.ray(i).origin))
-        .fold(0.0f32, f32::max);
+    let pad = stream_pad(stream);
     let octant_mask = stream.octant_mask();
     let mut pending = std::mem::take(&mut scratch.stream_stack);
     pending.clear();
@@ -201,6 +200,22 @@ fn trace_stream<A: SceneMesh, K: TriangleTest, V: Visitor>(
     scratch.stream_stack = pending;
 }
 
+/// One padding for the whole stream: the largest any of its rays needs, read from the origin
+/// columns alone.
+fn stream_pad(stream: &RayStream<'_>) -> f32 {
+    let (start, end) = (stream.start, stream.end);
+    let cols = &stream.lanes.cols;
+    let (x, y, z) = (
+        &cols[OX][start..end],
+        &cols[OY][start..end],
+        &cols[OZ][start..end],
+    );
+    x.iter().zip(y).zip(z).fold(0.0f32, |m, ((&x, &y), &z)| {
+        let origin = Vec3::new(f32::from_bits(x), f32::from_bits(y), f32::from_bits(z));
+        m.max(ray_pad(origin))
+    })
+}
+
 /// Rays `0..active` of `stream` on one instance: transformed once into mesh-space lanes,
 /// traced as one stream, their range ends copied back.
 fn stream_instance<A: SceneMesh, K: TriangleTest, V: Visitor>(
@@ -238,7 +253,11 @@ fn stream_instance<A: SceneMesh, K: TriangleTest, V: Visitor>(
         inner,
         ..
     } = scratch;
-    lanes.reset(active);
+    // Grow only: the lanes past the stream's end are never read, and shrinking would make the
+    // next visit clear them again.
+    if lanes.len() < active {
+        lanes.reset(active);
+    }
     outer.clear();
     for i in 0..active {
         let ray = stream.ray(i);
@@ -251,7 +270,6 @@ fn stream_instance<A: SceneMesh, K: TriangleTest, V: Visitor>(
     if n == 0 {
         return;
     }
-    lanes.reset(n);
     let mut local = RayStream::new(lanes, 0, n, 0, stream.partitioner, stream.options);
     let mut visitor = ToGlobal {
         first: instance.first_id,

@@ -4,20 +4,28 @@
 //! A game's AI systems and jobs each want a few sightlines per agent per frame, from whatever
 //! thread they run on. Answering each at once costs a full walk per ray; the batched engine
 //! answers thousands together much faster, but needs them in one slice. The queue bridges the
-//! two: [`LosQueue::submit`] takes `&self`, so any number of threads call it concurrently
-//! (a lock-free bounded queue from crossbeam and an atomic ticket counter: no lock, no
-//! allocation per request); each request gets a [`Ticket`]; one [`LosQueue::flush`] (which
-//! takes `&mut self`, so every submitter is done) answers them all with one batched any-hit
-//! call on rayon, into arrays kept from frame to frame; [`LosQueue::visible`] reads an answer by
-//! ticket until the next flush.
+//! two: [`LosQueue::submit`] takes `&self`, so any number of threads call it concurrently;
+//! each request gets a [`Ticket`]; one [`LosQueue::flush`] (which takes `&mut self`, so every
+//! submitter is done) answers them all with one batched any-hit call on rayon, into arrays kept
+//! from frame to frame; [`LosQueue::visible`] reads an answer by ticket until the next flush.
+//!
+//! **Lock-free, no allocation per request.** The ticket is a `fetch_add` on one counter (kept
+//! on its own cache line with crossbeam's `CachePadded`), and it is also the request's slot in
+//! an array allocated once: the request is written there with relaxed atomic stores of its
+//! eight floats, so submitters never wait on each other and never touch each other's slots.
+//! The flush, holding `&mut self` (after every submitter has finished, which orders their
+//! writes before it), reads the slots as plain values: no draining pass, and a whole list
+//! can be reserved with one atomic step ([`LosQueue::submit_all`]). (Crossbeam's `ArrayQueue`,
+//! tried first, measured the same in `game_ai_los` but needs the draining pass and a
+//! compare-and-swap per push.)
 //!
 //! The answers are those of `occluded_batch` on the same rays, so they equal the per-ray
 //! `occluded` answers bit for bit: a sightline is clear iff the segment `[from, to]` (both
 //! ends included) hits nothing.
 
-use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::atomic::{AtomicU32, AtomicUsize, Ordering};
 
-use crossbeam::queue::ArrayQueue;
+use crossbeam::utils::CachePadded;
 use glam::Vec3;
 
 use crate::batch::BatchOptions;
@@ -35,6 +43,14 @@ impl Ticket {
     /// The request's position in its frame's batch (0 for the first request taken).
     pub fn index(&self) -> usize {
         self.index as usize
+    }
+
+    /// The ticket of the `k`-th ray of a [`LosQueue::submit_all`] that returned this ticket.
+    pub fn offset(&self, k: usize) -> Ticket {
+        Ticket {
+            frame: self.frame,
+            index: self.index + k as u32,
+        }
     }
 }
 
@@ -69,10 +85,35 @@ impl std::fmt::Display for QueueError {
 
 impl std::error::Error for QueueError {}
 
+/// One request's ray as the bits of its eight floats: origin, direction, `tmin`, `tmax`.
+#[derive(Default)]
+struct Slot([AtomicU32; 8]);
+
+impl Slot {
+    fn store(&self, ray: &Ray) {
+        let [ox, oy, oz] = ray.origin.to_array();
+        let [dx, dy, dz] = ray.dir.to_array();
+        for (cell, v) in self
+            .0
+            .iter()
+            .zip([ox, oy, oz, dx, dy, dz, ray.tmin, ray.tmax])
+        {
+            cell.store(v.to_bits(), Ordering::Relaxed);
+        }
+    }
+
+    /// The ray, read through `&mut` (no submitter is running).
+    fn load(&mut self) -> Ray {
+        let [ox, oy, oz, dx, dy, dz, tmin, tmax] =
+            self.0.each_mut().map(|c| f32::from_bits(*c.get_mut()));
+        Ray::with_range(Vec3::new(ox, oy, oz), Vec3::new(dx, dy, dz), tmin, tmax)
+    }
+}
+
 /// The queue (see the module docs).
 pub struct LosQueue {
-    requests: ArrayQueue<(u32, Ray)>,
-    taken: AtomicUsize,
+    slots: Box<[Slot]>,
+    taken: CachePadded<AtomicUsize>,
     /// The frame now collecting requests.
     frame: u64,
     /// The frame whose answers `occluded` holds (none before the first flush).
@@ -88,8 +129,8 @@ impl LosQueue {
     pub fn with_capacity(capacity: usize) -> Self {
         let capacity = capacity.clamp(1, u32::MAX as usize);
         Self {
-            requests: ArrayQueue::new(capacity),
-            taken: AtomicUsize::new(0),
+            slots: (0..capacity).map(|_| Slot::default()).collect(),
+            taken: CachePadded::new(AtomicUsize::new(0)),
             frame: 0,
             answered: None,
             rays: Vec::with_capacity(capacity),
@@ -106,7 +147,7 @@ impl LosQueue {
 
     /// Most requests per frame.
     pub fn capacity(&self) -> usize {
-        self.requests.capacity()
+        self.slots.len()
     }
 
     /// Requests taken this frame.
@@ -127,18 +168,36 @@ impl LosQueue {
     /// Asks whether `ray` hits nothing in its range (an invalid ray is clear: it hits nothing).
     pub fn submit_ray(&self, ray: Ray) -> Result<Ticket, QueueError> {
         let index = self.taken.fetch_add(1, Ordering::Relaxed);
-        let capacity = self.capacity();
-        if index >= capacity {
-            return Err(QueueError::Full { capacity });
-        }
-        // Tickets below the capacity are unique and the queue is drained at every flush, so
-        // there is always room.
-        if self.requests.push((index as u32, ray)).is_err() {
-            unreachable!("at most `capacity` requests are pushed between flushes");
-        }
+        let Some(slot) = self.slots.get(index) else {
+            return Err(QueueError::Full {
+                capacity: self.capacity(),
+            });
+        };
+        // Each index below the capacity is handed out once per frame: the slot is ours.
+        slot.store(&ray);
         Ok(Ticket {
             frame: self.frame,
             index: index as u32,
+        })
+    }
+
+    /// Submits every ray of `rays` at once (a system's whole list for the frame): one atomic
+    /// step for all of them instead of one each, so submitters contend less. Ray `k` gets
+    /// `first.offset(k)` (see [`Ticket::offset`]). All or nothing: if they do not all fit,
+    /// none is taken and the queue is unchanged.
+    pub fn submit_all(&self, rays: &[Ray]) -> Result<Ticket, QueueError> {
+        let capacity = self.capacity();
+        let fits = |taken: usize| taken.checked_add(rays.len()).filter(|&end| end <= capacity);
+        let start = self
+            .taken
+            .fetch_update(Ordering::Relaxed, Ordering::Relaxed, fits)
+            .map_err(|_| QueueError::Full { capacity })?;
+        for (slot, ray) in self.slots[start..start + rays.len()].iter().zip(rays) {
+            slot.store(ray);
+        }
+        Ok(Ticket {
+            frame: self.frame,
+            index: start as u32,
         })
     }
 
@@ -149,10 +208,7 @@ impl LosQueue {
         let count = self.len();
         self.rays.clear();
         self.rays
-            .resize(count, Ray::segment(Vec3::ZERO, Vec3::ZERO));
-        while let Some((index, ray)) = self.requests.pop() {
-            self.rays[index as usize] = ray;
-        }
+            .extend(self.slots[..count].iter_mut().map(Slot::load));
         self.occluded.clear();
         self.occluded.resize(count, false);
         world.occluded_batch_with(&self.rays, &mut self.occluded, &self.options)?;
