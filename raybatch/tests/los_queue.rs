@@ -26,7 +26,7 @@ fn world() -> raybatch::Scene {
 #[test]
 fn requests_from_many_threads_get_the_per_ray_answers() {
     let scene = world();
-    let mut queue = LosQueue::with_capacity(4000);
+    let mut queue = LosQueue::with_capacity(4000).unwrap();
     for frame in 0..3u64 {
         let submitted: Vec<Vec<(Ticket, Vec3, Vec3)>> = std::thread::scope(|s| {
             let handles: Vec<_> = (0..4u64)
@@ -70,7 +70,7 @@ fn requests_from_many_threads_get_the_per_ray_answers() {
 #[test]
 fn full_unflushed_and_stale_tickets_are_errors() {
     let scene = world();
-    let mut queue = LosQueue::with_capacity(2);
+    let mut queue = LosQueue::with_capacity(2).unwrap();
     let a = queue.submit(Vec3::ZERO, Vec3::X).unwrap();
     queue.submit(Vec3::ZERO, Vec3::Y).unwrap();
     assert_eq!(
@@ -97,7 +97,7 @@ fn full_unflushed_and_stale_tickets_are_errors() {
 #[test]
 fn lists_submitted_at_once_get_consecutive_tickets() {
     let scene = world();
-    let mut queue = LosQueue::with_capacity(10);
+    let mut queue = LosQueue::with_capacity(10).unwrap();
     let rays: Vec<Ray> = (0..4)
         .map(|i| {
             Ray::segment(
@@ -121,5 +121,42 @@ fn lists_submitted_at_once_get_consecutive_tickets() {
     assert_eq!(queue.visible(single), Ok(true));
     for (k, ray) in rays.iter().enumerate() {
         assert_eq!(queue.visible(first.offset(k)), Ok(!scene.occluded(ray)));
+    }
+}
+
+/// Tickets only open answers of the queue that issued them: another queue's ticket, or an
+/// offset past the list a ticket was taken for, is refused with a typed error, never a panic;
+/// capacities outside 1..=MAX_CAPACITY are refused at construction.
+#[test]
+fn foreign_tickets_and_bad_capacities_are_errors() {
+    let scene = world();
+    let mut small = LosQueue::with_capacity(2).unwrap();
+    let mut large = LosQueue::with_capacity(100).unwrap();
+    let segment = (Vec3::new(0.0, 0.0, 5.0), Vec3::new(0.0, 0.0, 9.0));
+    let mine = small.submit(segment.0, segment.1).unwrap();
+    let mut foreign = large.submit(segment.0, segment.1).unwrap();
+    for _ in 0..50 {
+        foreign = large.submit(segment.0, segment.1).unwrap();
+    }
+    assert_eq!(small.flush(&scene), Ok(1));
+    assert_eq!(large.flush(&scene), Ok(51));
+    assert_eq!(small.visible(mine), Ok(true));
+    assert_eq!(small.visible(foreign), Err(QueueError::UnknownTicket));
+    assert_eq!(large.visible(mine), Err(QueueError::UnknownTicket));
+    assert_eq!(
+        small.visible(mine.offset(7)),
+        Err(QueueError::UnknownTicket)
+    );
+    assert_eq!(
+        small.visible(mine.offset(usize::MAX)),
+        Err(QueueError::UnknownTicket)
+    );
+    for capacity in [0, LosQueue::MAX_CAPACITY + 1, usize::MAX] {
+        assert_eq!(
+            LosQueue::with_capacity(capacity).err(),
+            Some(QueueError::BadCapacity {
+                requested: capacity
+            })
+        );
     }
 }

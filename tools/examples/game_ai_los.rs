@@ -34,7 +34,7 @@ fn main() {
     let mut args = std::env::args()
         .skip(1)
         .map(|a| a.parse::<usize>().expect("a number"));
-    let agents = args.next().unwrap_or(1000);
+    let agents = args.next().unwrap_or(1000).max(1);
     let frames = args.next().unwrap_or(100);
     let town = city(24).mesh;
     let (world, first_vehicle) = town_world(&town);
@@ -55,7 +55,7 @@ fn main() {
         .collect();
     let mut rng = SplitMix64::new(12);
     let requests = agents * TARGETS;
-    let mut queue = LosQueue::with_capacity(requests);
+    let mut queue = LosQueue::with_capacity(requests).expect("a frame's sightlines fit a queue");
     let mut segments = Vec::with_capacity(requests);
     let (mut per_ray, mut batched, mut queued) = (
         vec![false; requests],

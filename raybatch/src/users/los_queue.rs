@@ -31,10 +31,13 @@ use glam::Vec3;
 use crate::batch::BatchOptions;
 use crate::geom::Ray;
 use crate::query::{BatchError, BatchQueries};
+use crate::workspace::StructureId;
 
 /// The receipt for one request: which frame it belongs to and its place in that frame.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub struct Ticket {
+    /// The queue that issued it (a [`StructureId`]), so another queue's ticket is refused.
+    queue: u64,
     frame: u64,
     index: u32,
 }
@@ -48,8 +51,9 @@ impl Ticket {
     /// The ticket of the `k`-th ray of a [`LosQueue::submit_all`] that returned this ticket.
     pub fn offset(&self, k: usize) -> Ticket {
         Ticket {
+            queue: self.queue,
             frame: self.frame,
-            index: self.index + k as u32,
+            index: self.index.saturating_add(k.try_into().unwrap_or(u32::MAX)),
         }
     }
 }
@@ -64,6 +68,14 @@ pub enum QueueError {
     },
     /// The ticket's frame has not been flushed yet.
     NotFlushed,
+    /// The ticket was not issued by this queue for this frame (another queue's ticket, or an
+    /// [`Ticket::offset`] past the list it was taken for).
+    UnknownTicket,
+    /// A queue needs room for 1 to [`LosQueue::MAX_CAPACITY`] requests.
+    BadCapacity {
+        /// The capacity asked for.
+        requested: usize,
+    },
     /// The ticket belongs to a frame older than the last flush: its answer is gone.
     Stale,
 }
@@ -78,6 +90,12 @@ impl std::fmt::Display for QueueError {
                 )
             }
             QueueError::NotFlushed => f.write_str("the ticket's frame has not been flushed"),
+            QueueError::UnknownTicket => f.write_str("the ticket was not issued by this queue"),
+            QueueError::BadCapacity { requested } => write!(
+                f,
+                "a line-of-sight queue holds 1 to {} requests, not {requested}",
+                LosQueue::MAX_CAPACITY
+            ),
             QueueError::Stale => f.write_str("the ticket's answer was replaced by a later flush"),
         }
     }
@@ -112,6 +130,8 @@ impl Slot {
 
 /// The queue (see the module docs).
 pub struct LosQueue {
+    /// Stamped on every ticket.
+    id: StructureId,
     slots: Box<[Slot]>,
     taken: CachePadded<AtomicUsize>,
     /// The frame now collecting requests.
@@ -124,11 +144,20 @@ pub struct LosQueue {
 }
 
 impl LosQueue {
-    /// A queue for up to `capacity` requests per frame (1 to `u32::MAX`), answered with the
-    /// default batch options.
-    pub fn with_capacity(capacity: usize) -> Self {
-        let capacity = capacity.clamp(1, u32::MAX as usize);
-        Self {
+    /// Most requests one frame may hold: 2^24 (16.8M requests, 512 MiB of slots), far above a
+    /// frame's line-of-sight work and far below what would exhaust memory.
+    pub const MAX_CAPACITY: usize = 1 << 24;
+
+    /// A queue for up to `capacity` requests per frame (1 to [`LosQueue::MAX_CAPACITY`]; other
+    /// values are [`QueueError::BadCapacity`]), answered with the default batch options.
+    pub fn with_capacity(capacity: usize) -> Result<Self, QueueError> {
+        if !(1..=Self::MAX_CAPACITY).contains(&capacity) {
+            return Err(QueueError::BadCapacity {
+                requested: capacity,
+            });
+        }
+        Ok(Self {
+            id: StructureId::new(),
             slots: (0..capacity).map(|_| Slot::default()).collect(),
             taken: CachePadded::new(AtomicUsize::new(0)),
             frame: 0,
@@ -136,7 +165,7 @@ impl LosQueue {
             rays: Vec::with_capacity(capacity),
             occluded: Vec::with_capacity(capacity),
             options: BatchOptions::default(),
-        }
+        })
     }
 
     /// The same queue answering with `options` (thread use, kernel, ...).
@@ -176,6 +205,7 @@ impl LosQueue {
         // Each index below the capacity is handed out once per frame: the slot is ours.
         slot.store(&ray);
         Ok(Ticket {
+            queue: self.id.get(),
             frame: self.frame,
             index: index as u32,
         })
@@ -196,6 +226,7 @@ impl LosQueue {
             slot.store(ray);
         }
         Ok(Ticket {
+            queue: self.id.get(),
             frame: self.frame,
             index: start as u32,
         })
@@ -220,8 +251,15 @@ impl LosQueue {
 
     /// True if the request's segment is clear, as of the flush that answered it.
     pub fn visible(&self, ticket: Ticket) -> Result<bool, QueueError> {
+        if ticket.queue != self.id.get() {
+            return Err(QueueError::UnknownTicket);
+        }
         match self.answered {
-            Some(frame) if ticket.frame == frame => Ok(!self.occluded[ticket.index as usize]),
+            Some(frame) if ticket.frame == frame => self
+                .occluded
+                .get(ticket.index as usize)
+                .map(|&blocked| !blocked)
+                .ok_or(QueueError::UnknownTicket),
             Some(frame) if ticket.frame < frame => Err(QueueError::Stale),
             _ => Err(QueueError::NotFlushed),
         }
