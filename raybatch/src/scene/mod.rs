@@ -12,9 +12,10 @@
 //! [`Rigid::ray_to_mesh`] (documented operations, see [`rigid`]) is traced exactly against the
 //! mesh; the scene keeps, over all instances, the closest hit by `t` and then lowest global id,
 //! any hit, or every hit. At an identity transform that is the bare tree's answer bit for bit;
-//! otherwise it is exact for the rounded mesh-space ray, whose `t` equals the world ray's up to
-//! a few units in the last place (a rotation preserves lengths; the direction is not
-//! renormalised). Culling in the top level never changes an answer: its boxes are padded to
+//! otherwise it is exact for the rounded mesh-space ray. A rotation preserves lengths and the
+//! direction is not renormalised, so a hit's `t` matches the world ray's hit point up to the
+//! transform's rounding: about `10 eps (|origin - translation| + |p|) / |dir|` for a hit at
+//! mesh-space point `p` (`eps = 2^-23`; see [`rigid`]). Culling in the top level never changes an answer: its boxes are padded to
 //! cover the transform's rounding ([`instance`]). Batched answers equal per-ray answers bit
 //! for bit.
 //!

@@ -13,8 +13,12 @@
 //!
 //! The direction is rotated, not renormalised: a rotation preserves lengths, so the mesh-space
 //! `t` is the world `t` (in units of the world ray's direction) up to the rounding of the
-//! product, a few units in the last place of `|dir|`. Hits of different instances are compared
-//! by that `t`, and the tie rule then picks the lowest global triangle id.
+//! products: the mesh-space origin and direction are each off by a few units in the last place
+//! of their own size, which moves a hit at mesh-space point `p` by about
+//! `10 eps (|origin - translation| + |p|)` along the ray (`eps = 2^-23`), so its `t` by that
+//! over `|dir|`: small next to `t` unless the origin is far from the instance compared with the
+//! hit distance. Hits of different instances are compared by that `t`, and the tie rule then
+//! picks the lowest global triangle id.
 
 use glam::{Mat3, Quat, Vec3};
 
