@@ -41,6 +41,63 @@ pub struct SpatialHash {
     dims: [u32; 3],
     table: CellTable,
     refs: Vec<u32>,
+    coarse: Coarse,
+}
+
+/// One bit per block of `2^shift` cells along each axis, set if the block holds a stored cell:
+/// the walk skips the table probe (a cache miss) for cells of empty blocks, which in a sparse
+/// world are almost all the cells a ray crosses. The block size is the smallest that keeps the
+/// bits at most [`COARSE_BITS_PER_CELL`] per *stored* cell, so the map never makes the hash's
+/// memory follow the bounds.
+#[derive(Clone, Debug, Default)]
+struct Coarse {
+    shift: u32,
+    dims: [u64; 3],
+    bits: Vec<u64>,
+}
+
+/// Bits of the coarse map per stored cell, at most.
+const COARSE_BITS_PER_CELL: u64 = 8;
+
+impl Coarse {
+    /// The map of the cells `keys` (linear indices) of a `dims` grid.
+    fn new(dims: [u32; 3], cells: &[[u32; 3]]) -> Self {
+        let budget = COARSE_BITS_PER_CELL * cells.len().max(1) as u64;
+        let mut shift = 0;
+        let blocks = |shift: u32| dims.map(|d| u64::from(d).div_ceil(1 << shift));
+        while blocks(shift).iter().product::<u64>() > budget {
+            shift += 1;
+        }
+        let dims = blocks(shift);
+        let mut map = Self {
+            shift,
+            dims,
+            bits: vec![0; (dims.iter().product::<u64>() as usize).div_ceil(64)],
+        };
+        for &cell in cells {
+            let b = map.block(cell);
+            map.bits[b / 64] |= 1 << (b % 64);
+        }
+        map
+    }
+
+    /// The block holding `cell`.
+    #[inline(always)]
+    fn block(&self, cell: [u32; 3]) -> usize {
+        let [x, y, z] = cell.map(|c| u64::from(c >> self.shift));
+        (x + self.dims[0] * (y + self.dims[1] * z)) as usize
+    }
+
+    /// True if `cell`'s block may hold a stored cell.
+    #[inline(always)]
+    fn may_hold(&self, cell: [u32; 3]) -> bool {
+        let b = self.block(cell);
+        self.bits[b / 64] & (1 << (b % 64)) != 0
+    }
+
+    fn heap_bytes(&self) -> usize {
+        self.bits.len() * size_of::<u64>()
+    }
 }
 
 impl SpatialHash {
@@ -67,6 +124,7 @@ impl SpatialHash {
                 dims: [1; 3],
                 table: CellTable::default(),
                 refs: Vec::new(),
+                coarse: Coarse::default(),
             });
         }
         let mut dims = resolution(&bounds, live.len(), options).map(|d| d.min(MAX_SLABS));
@@ -76,13 +134,14 @@ impl SpatialHash {
             let blocks = blocks(&mesh, &live, &planes);
             let needed: u64 = blocks.iter().map(super::cells::block_cells).sum();
             if needed <= max_refs || dims == [1; 3] {
-                let (table, refs) = fill(dims, &live, &blocks);
+                let (table, refs, cells) = fill(dims, &live, &blocks);
                 return Ok(Self {
                     mesh,
                     planes,
                     dims,
                     table,
                     refs,
+                    coarse: Coarse::new(dims, &cells),
                 });
             }
             let cells: u64 = dims.iter().map(|&d| u64::from(d)).product();
@@ -119,9 +178,9 @@ impl SpatialHash {
     }
 }
 
-/// The table and the reference array: every (cell, reference) pair sorted by cell, then id,
-/// so that each non-empty cell's references are one run.
-fn fill(dims: [u32; 3], live: &[u32], blocks: &[Block]) -> (CellTable, Vec<u32>) {
+/// The table, the reference array and the non-empty cells: every (cell, reference) pair
+/// sorted by cell, then id, so that each non-empty cell's references are one run.
+fn fill(dims: [u32; 3], live: &[u32], blocks: &[Block]) -> (CellTable, Vec<u32>, Vec<[u32; 3]>) {
     let [nx, ny, _] = dims.map(u64::from);
     let mut pairs: Vec<(u64, u32)> = Vec::new();
     for (&id, block) in live.iter().zip(blocks) {
@@ -134,11 +193,15 @@ fn fill(dims: [u32; 3], live: &[u32], blocks: &[Block]) -> (CellTable, Vec<u32>)
     let cells = pairs.chunk_by(|a, b| a.0 == b.0).count();
     let mut table = CellTable::with_capacity(cells);
     let mut refs = Vec::with_capacity(pairs.len());
+    let mut stored = Vec::with_capacity(cells);
     for run in pairs.chunk_by(|a, b| a.0 == b.0) {
-        table.insert(run[0].0, refs.len() as u32, run.len() as u32);
+        let key = run[0].0;
+        table.insert(key, refs.len() as u32, run.len() as u32);
         refs.extend(run.iter().map(|p| p.1));
+        let (x, yz) = (key % nx, key / nx);
+        stored.push([x, yz % ny, yz / ny].map(|c| c as u32));
     }
-    (table, refs)
+    (table, refs, stored)
 }
 
 impl Accel for SpatialHash {
@@ -157,6 +220,9 @@ impl Accel for SpatialHash {
         }
         mailbox.next_ray();
         walk(&self.planes, ray, &mut tmax, |cell, tmax| {
+            if !self.coarse.may_hold(cell) {
+                return;
+            }
             let (first, count) = self.table.get(self.key(cell));
             let refs = &self.refs[first as usize..(first + count) as usize];
             test_cell::<K, V>(&self.mesh, refs, ray, id, mailbox, tmax, visitor);
@@ -180,6 +246,7 @@ impl Footprint for SpatialHash {
 
     fn heap_bytes(&self) -> usize {
         self.table.heap_bytes()
+            + self.coarse.heap_bytes()
             + self.refs.len() * size_of::<u32>()
             + self.planes.iter().map(|p| p.heap_bytes()).sum::<usize>()
     }
