@@ -14,7 +14,7 @@ use crate::batch::BatchOptions;
 use crate::bvh::build::MAX_LEAF_SIZE;
 use crate::bvh::{AabbTree, BuildError, BuildOptions, QuantizedAabbTree};
 use crate::geom::{Kernel, Ray};
-use crate::grid::{GridOptions, UniformGrid};
+use crate::grid::{GridOptions, SpatialHash, UniformGrid};
 use crate::hit::Hit;
 use crate::kdtree::KdTree;
 use crate::mesh::Mesh;
@@ -42,11 +42,13 @@ pub enum AccelKind {
     Grid,
     /// [`KdTree`]: SAH kd-tree, 8-byte nodes, front-to-back walk, mailboxed.
     Kd,
+    /// [`SpatialHash`]: the grid's cells and walk, only non-empty cells stored, hashed.
+    Hash,
 }
 
 impl AccelKind {
     /// Every kind.
-    pub const ALL: [AccelKind; 8] = [
+    pub const ALL: [AccelKind; 9] = [
         AccelKind::Aabb,
         AccelKind::Quantized,
         AccelKind::Bvh4,
@@ -55,6 +57,7 @@ impl AccelKind {
         AccelKind::Hybrid,
         AccelKind::Grid,
         AccelKind::Kd,
+        AccelKind::Hash,
     ];
 
     /// The fastest exact structure on our measurements: the 4-wide tree answers single rays
@@ -74,6 +77,7 @@ impl AccelKind {
             AccelKind::Hybrid => "hybrid",
             AccelKind::Grid => "grid",
             AccelKind::Kd => "kd",
+            AccelKind::Hash => "hash",
         }
     }
 
@@ -88,6 +92,7 @@ impl AccelKind {
             AccelKind::Hybrid => "AABB tree over zero-byte trees of 32-triangle chunks",
             AccelKind::Grid => "uniform grid, exact 3D-DDA walk, mailboxes",
             AccelKind::Kd => "SAH kd-tree, 8-byte nodes, front-to-back walk, mailboxes",
+            AccelKind::Hash => "spatial hash: the grid's walk, only non-empty cells stored",
         }
     }
 
@@ -101,7 +106,7 @@ impl AccelKind {
             | AccelKind::Zbt
             | AccelKind::ZbtNoCache
             | AccelKind::Hybrid => true,
-            AccelKind::Bvh4 | AccelKind::Grid | AccelKind::Kd => false,
+            AccelKind::Bvh4 | AccelKind::Grid | AccelKind::Kd | AccelKind::Hash => false,
         }
     }
 
@@ -146,6 +151,9 @@ impl AccelKind {
             }
             AccelKind::Grid => AnyAccel::new(UniformGrid::build(mesh, &GridOptions::default())?),
             AccelKind::Kd => AnyAccel::new(KdTree::build(mesh, options.max_leaf_size)?),
+            AccelKind::Hash => {
+                AnyAccel::new(SpatialHash::build(mesh, &SpatialHash::default_options())?)
+            }
         })
     }
 }

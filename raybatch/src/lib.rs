@@ -64,7 +64,7 @@ pub use bvh::{AabbTree, BuildError, BuildOptions, Bvh, ChildOrdering, QuantizedA
 pub use catalog::{AccelKind, AnyAccel};
 pub use geom::{Aabb, Kernel, Ray, RayError};
 pub use glam;
-pub use grid::{GridOptions, UniformGrid};
+pub use grid::{GridOptions, SpatialHash, UniformGrid};
 pub use hit::{Hit, Visitor};
 pub use kdtree::KdTree;
 pub use mesh::{Mesh, MeshError};

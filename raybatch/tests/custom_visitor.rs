@@ -16,7 +16,7 @@ use raybatch::{
     AabbTree, Accel, AccelKind, BuildOptions, Hit, HybridTree, Kernel, Mesh, QuantizedAabbTree,
     Ray, RayQueries, Visitor, WideTree, ZeroByteTree,
 };
-use raybatch::{GridOptions, KdTree, UniformGrid};
+use raybatch::{GridOptions, KdTree, SpatialHash, UniformGrid};
 
 /// Keeps the first `n` hits it is shown, then ends the ray.
 struct FirstHits {
@@ -130,6 +130,11 @@ fn first_n_hits_visitor_on_every_structure() {
             AccelKind::Kd => check(
                 name,
                 &KdTree::build(mesh.clone(), options.max_leaf_size).unwrap(),
+                &rays,
+            ),
+            AccelKind::Hash => check(
+                name,
+                &SpatialHash::build(mesh.clone(), &SpatialHash::default_options()).unwrap(),
                 &rays,
             ),
         }

@@ -19,7 +19,7 @@ use raybatch::{
     ChildOrdering, Footprint, Hit, HybridTree, Kernel, Mesh, QuantizedAabbTree, Ray, RayQueries,
     WideTree, ZeroByteTree,
 };
-use raybatch::{GridOptions, KdTree, UniformGrid};
+use raybatch::{GridOptions, KdTree, SpatialHash, UniformGrid};
 
 /// Every hit of a batch as sorted `(ray index, hit bits)`.
 fn sorted_batch_hits(each: impl FnOnce(&(dyn Fn(usize, Hit) + Sync))) -> Vec<(usize, HitBits)> {
@@ -203,6 +203,11 @@ fn typed_queries_match_any_accel() {
                     }
                     AccelKind::Kd => {
                         let typed = KdTree::build(mesh, leaf).unwrap();
+                        compare_typed(&name, &typed, &any, &rays)
+                    }
+                    AccelKind::Hash => {
+                        let options = SpatialHash::default_options();
+                        let typed = SpatialHash::build(mesh, &options).unwrap();
                         compare_typed(&name, &typed, &any, &rays)
                     }
                 };

@@ -1,16 +1,18 @@
 //! The spatial structures' knobs, measured against the AABB tree: the kd-tree's leaf size, the
-//! grid's density (cells per triangle) and resolution, on the ray sets of `raybatch bench` plus vertical rays (straight down from above
+//! grid's density (cells per triangle) and resolution, the spatial hash against the dense grid
+//! with the same cells, on the ray sets of `raybatch bench` plus vertical rays (straight down from above
 //! the bounds, the height field's typical query). One thread, per ray, Mrays/s; every
 //! variant's closest hits are checked against the AABB tree's (same triangle, same `t` bits).
 //!
-//! `cargo run --release -p raybatch-tools --example grid_tuning [-- bunny|terrain|city [RAYS]]`
+//! `cargo run --release -p raybatch-tools --example grid_tuning [-- bunny|terrain|city|sparse [RAYS]]`
 
 use std::time::Instant;
 
 use raybatch::glam::Vec3;
+use raybatch::grid::HASH_CELLS_PER_TRIANGLE;
 use raybatch::{
     AabbTree, Accel, BuildOptions, Footprint, GridOptions, Hit, KdTree, Mesh, Ray, RayQueries,
-    UniformGrid,
+    SpatialHash, UniformGrid,
 };
 use raybatch_tools::scenes::{self, RaySet, SplitMix64};
 
@@ -20,7 +22,8 @@ fn main() {
         None | Some("terrain") => scenes::terrain(scenes::BUILTIN_TERRAIN_CELLS),
         Some("bunny") => scenes::bunny(),
         Some("city") => scenes::city(scenes::BUILTIN_CITY_BLOCKS),
-        Some(other) => panic!("unknown scene {other}: bunny, terrain or city"),
+        Some("sparse") => scenes::sparse(scenes::BUILTIN_SPARSE_CLUSTERS),
+        Some(other) => panic!("unknown scene {other}: bunny, terrain, city or sparse"),
     };
     let count: usize = args
         .next()
@@ -83,6 +86,46 @@ fn main() {
             check(&reference, &m);
             let name = format!("grid {density} cells/tri {:?}", grid.resolution());
             row(&name, ms, &grid, &m, &reference);
+        }
+        for density in [2.0, HASH_CELLS_PER_TRIANGLE, 64.0] {
+            // The hash, and the dense grid with the same cells.
+            let options = GridOptions {
+                cells_per_triangle: density,
+                ..SpatialHash::default_options()
+            };
+            let start = Instant::now();
+            let hash = SpatialHash::build(scene.mesh.clone(), &options).unwrap();
+            let ms = ms_since(start);
+            let m: Vec<_> = sets.iter().map(|(_, rays)| measure(&hash, rays)).collect();
+            check(&reference, &m);
+            let resolution = hash.resolution();
+            row(
+                &format!("hash {density} cells/tri {resolution:?}"),
+                ms,
+                &hash,
+                &m,
+                &reference,
+            );
+            let options = GridOptions {
+                resolution: Some(resolution),
+                max_cells: 1 << 28,
+                ..GridOptions::default()
+            };
+            let start = Instant::now();
+            let grid = UniformGrid::build(scene.mesh.clone(), &options).unwrap();
+            let ms = ms_since(start);
+            let m: Vec<_> = sets.iter().map(|(_, rays)| measure(&grid, rays)).collect();
+            check(&reference, &m);
+            row(
+                &format!("grid {:?}", grid.resolution()),
+                ms,
+                &grid,
+                &m,
+                &reference,
+            );
+        }
+        if scene.name != "terrain" {
+            return;
         }
         let extent = scene.mesh.bounds().extent();
         for (across, up) in [(708, 8), (708, 24), (500, 8), (500, 24), (1000, 16)] {

@@ -11,7 +11,7 @@
 //! thread's mailbox, so every grid the thread queries can share it: a slot left by another
 //! grid's ray is always an older number.
 //!
-//! Cells mark the references of triangles stored in one cell only ([`SHARED`] clear): those
+//! Cells mark the references of triangles stored in one cell only (the `SHARED` bit clear): those
 //! cannot be met twice (each cell is visited once per ray) and skip the set.
 
 /// Bit set in a cell's triangle reference when the triangle is stored in more than one cell.

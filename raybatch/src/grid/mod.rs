@@ -9,17 +9,22 @@
 //! - [`sizing`]: how many cells ([`GridOptions`]);
 //! - `cells`: the compact storage (one offset per cell, one reference array);
 //! - `walk`: the exact 3D-DDA (the argument for exactness is in its docs);
-//! - [`mailbox`]: per-thread stamps, so a triangle in several cells is tested once per ray;
+//! - [`mailbox`]: a small per-thread set of tested triangles, so a triangle in several cells is
+//!   tested once per ray;
 //! - `uniform`: [`UniformGrid`], the dense grid;
+//! - `table`: the hash table of non-empty cells (multiplicative hash, linear probing);
 //! - `hash`: [`SpatialHash`], the sparse grid.
 
 pub(crate) mod cells;
+mod hash;
 pub mod mailbox;
 pub(crate) mod planes;
 pub mod sizing;
+mod table;
 pub(crate) mod uniform;
 pub(crate) mod walk;
 
+pub use hash::{HASH_CELLS_PER_TRIANGLE, SpatialHash};
 pub use mailbox::Mailbox;
 pub use sizing::GridOptions;
 pub use uniform::UniformGrid;

@@ -45,7 +45,7 @@ pub(crate) fn resolution(bounds: &Aabb, triangles: usize, options: &GridOptions)
     let density = f64::from(options.cells_per_triangle);
     let target = (density * triangles as f64).clamp(1.0, max_cells);
     let extent = bounds.extent().to_array().map(f64::from);
-    let mut flat = extent.map(|e| !(e > 0.0));
+    let mut flat = extent.map(|e| e.is_nan() || e <= 0.0);
     let mut dims = [1u32; 3];
     // At most three rounds: each either keeps every axis or flattens one more.
     for _ in 0..3 {

@@ -161,3 +161,57 @@ impl Footprint for UniformGrid {
         self.cells.heap_bytes() + self.planes.iter().map(|p| p.heap_bytes()).sum::<usize>()
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use glam::Vec3;
+
+    use super::*;
+    use crate::geom::Kernel;
+    use crate::geom::Ray;
+    use crate::grid::SpatialHash;
+    use crate::hit::Hit;
+    use crate::query::RayQueries;
+    use crate::query::brute_force;
+
+    /// A large triangle across every cell of a 10 x 10 x 1 grid, and 100 small ones.
+    fn spanning_mesh() -> Mesh {
+        let mut v = vec![
+            Vec3::new(-1.0, -1.0, 0.5),
+            Vec3::new(30.0, -1.0, 0.5),
+            Vec3::new(-1.0, 30.0, 0.5),
+        ];
+        let mut t = vec![[0, 1, 2]];
+        for i in 0..100u32 {
+            let o = Vec3::new((i % 10) as f32, (i / 10) as f32, 0.25);
+            v.extend([o, o + Vec3::X * 0.5, o + Vec3::Y * 0.5]);
+            t.push([3 * i + 3, 3 * i + 4, 3 * i + 5]);
+        }
+        Mesh::new(v, t).unwrap()
+    }
+
+    #[test]
+    fn a_triangle_in_many_cells_is_reported_once() {
+        let mesh = Arc::new(spanning_mesh());
+        let options = GridOptions {
+            resolution: Some([10, 10, 1]),
+            ..GridOptions::default()
+        };
+        let grid = UniformGrid::build(mesh.clone(), &options).unwrap();
+        let hash = SpatialHash::build(mesh.clone(), &options).unwrap();
+        assert!(grid.reference_count() > 100 + 50);
+        // Rays grazing along the big triangle's plane and across it, through many cells.
+        for ray in [
+            Ray::new(Vec3::new(-2.0, 0.3, 0.5), Vec3::new(1.0, 0.37, 0.0)),
+            Ray::new(Vec3::new(-2.0, -2.0, 3.0), Vec3::new(1.0, 1.0, -0.25)),
+            Ray::new(Vec3::new(5.0, 5.0, 0.5), Vec3::X),
+        ] {
+            let mut want = brute_force::all_hits(&mesh, &ray, Kernel::Watertight);
+            Hit::sort(&mut want);
+            for (name, mut got) in [("grid", grid.all_hits(&ray)), ("hash", hash.all_hits(&ray))] {
+                Hit::sort(&mut got);
+                assert_eq!(got, want, "{name} {ray:?}");
+            }
+        }
+    }
+}

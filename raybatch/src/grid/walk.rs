@@ -63,8 +63,9 @@ pub(crate) fn walk(
     loop {
         let a = next_axis(&axes);
         let te = axes[a].next_enter;
-        // Stops on +inf (no slab left), beyond the grid, beyond the best hit, or RAY_DONE.
-        if !(te <= tmax.min(far)) {
+        // Stops on +inf (no slab left), beyond the grid, beyond the best hit, or RAY_DONE
+        // (distances are never NaN: the axes that would give one have no events).
+        if te > tmax.min(far) {
             return;
         }
         for axis in axes.iter_mut() {
@@ -134,7 +135,7 @@ fn start<'a>(planes: &'a GridPlanes, ray: &PreparedRay, tmax: f32) -> Option<[Ax
         .iter()
         .map(|a| a.exit)
         .fold(tmax.min(f32::MAX), f32::min);
-    if !(t0 <= far) {
+    if t0 > far {
         return None;
     }
     for axis in &mut axes {

@@ -144,7 +144,7 @@ fn best_split(boxes: &[(u32, Aabb)], items: &[u32], node_box: &Aabb) -> Option<(
     let mut best: Option<(f32, usize, f32)> = None;
     for axis in 0..3 {
         let (lo, hi) = (node_box.min[axis], node_box.max[axis]);
-        if !(hi > lo) {
+        if hi <= lo {
             continue;
         }
         let scale = BINS as f32 / (hi - lo);
@@ -176,7 +176,8 @@ fn best_split(boxes: &[(u32, Aabb)], items: &[u32], node_box: &Aabb) -> Option<(
         }
     }
     let (cost, axis, position) = best?;
-    if !(cost < leaf_cost) {
+    // NaN when the node's box has no area (a segment): a leaf.
+    if cost.is_nan() || cost >= leaf_cost {
         return None;
     }
     // A plane every triangle straddles makes no progress.

@@ -134,3 +134,69 @@ impl Footprint for KdTree {
         (self.nodes.len() * size_of::<KdNode>()) + self.refs.len() * size_of::<u32>()
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use glam::Vec3;
+
+    use super::*;
+    use crate::geom::{Kernel, Ray};
+    use crate::hit::Hit;
+    use crate::query::{RayQueries, brute_force};
+
+    /// Two clusters of unit squares and one square lying in the plane `x = 5` between them,
+    /// which the first split cuts through.
+    fn split_mesh() -> Mesh {
+        let (mut v, mut t) = (Vec::new(), Vec::new());
+        let mut square = |corners: [Vec3; 4]| {
+            let b = v.len() as u32;
+            v.extend(corners);
+            t.extend([[b, b + 1, b + 2], [b, b + 2, b + 3]]);
+        };
+        for i in 0..8 {
+            let x = if i < 4 { 0.0 } else { 9.0 };
+            let z = (i % 4) as f32;
+            let o = Vec3::new(x, 0.0, z);
+            square([o, o + Vec3::X, o + Vec3::X + Vec3::Y, o + Vec3::Y]);
+        }
+        let p = Vec3::new(5.0, 0.0, 0.0);
+        square([
+            p,
+            p + Vec3::Y,
+            p + Vec3::Y + Vec3::Z * 4.0,
+            p + Vec3::Z * 4.0,
+        ]);
+        Mesh::new(v, t).unwrap()
+    }
+
+    #[test]
+    fn rays_and_triangles_in_a_split_plane() {
+        let mesh = Arc::new(split_mesh());
+        let tree = KdTree::build(mesh.clone(), 1).unwrap();
+        assert!(tree.depth() >= 1);
+        let mut rays = vec![
+            // In the plane x = 5 (the flat square's), along y and z.
+            Ray::new(Vec3::new(5.0, -1.0, 0.5), Vec3::Y),
+            Ray::new(Vec3::new(5.0, 0.5, -1.0), Vec3::Z),
+            // Across the plane, through the square's edge and corner.
+            Ray::new(Vec3::new(-1.0, 0.0, 0.0), Vec3::X),
+            Ray::new(Vec3::new(-1.0, 1.0, 4.0), Vec3::X),
+        ];
+        for i in 0..50 {
+            let a = i as f32 * 0.41;
+            rays.push(Ray::new(
+                Vec3::new(5.0, 0.5, 2.0),
+                Vec3::new(a.cos(), 0.1, a.sin()),
+            ));
+        }
+        for ray in rays {
+            let want = brute_force::cast_ray(&mesh, &ray, Kernel::Watertight);
+            assert_eq!(tree.cast_ray(&ray), want, "{ray:?}");
+            let mut all = tree.all_hits(&ray);
+            let mut expected = brute_force::all_hits(&mesh, &ray, Kernel::Watertight);
+            Hit::sort(&mut all);
+            Hit::sort(&mut expected);
+            assert_eq!(all, expected, "{ray:?}");
+        }
+    }
+}

@@ -15,7 +15,7 @@ use crate::bvh::build::MAX_LEAF_SIZE;
 use crate::bvh::{AabbTree, BuildError, BuildOptions, Bvh, QuantizedAabbTree};
 use crate::catalog::{AccelKind, too_large};
 use crate::geom::{Aabb, PreparedRay, TriangleTest};
-use crate::grid::{GridOptions, UniformGrid};
+use crate::grid::{GridOptions, SpatialHash, UniformGrid};
 use crate::hit::Visitor;
 use crate::kdtree::KdTree;
 use crate::mesh::Mesh;
@@ -48,6 +48,7 @@ enum Tree {
     Zbt(Permuted<ZeroByteTree>),
     Hybrid(Permuted<HybridTree>),
     Grid(UniformGrid),
+    Hash(SpatialHash),
     Kd(KdTree),
 }
 
@@ -60,12 +61,15 @@ pub struct MeshTreeScratch {
     zbt: <ZeroByteTree as Accel>::Scratch,
     hybrid: <HybridTree as Accel>::Scratch,
     grid: <UniformGrid as Accel>::Scratch,
+    hash: <SpatialHash as Accel>::Scratch,
     kd: <KdTree as Accel>::Scratch,
 }
 
 impl MeshTree {
     /// Builds a tree of kind `kind` over `mesh`, answering in `mesh`'s triangle ids (the
-    /// zero-byte trees are wrapped in [`Permuted`], as the catalog does).
+    /// zero-byte trees are wrapped in [`Permuted`], as the catalog does). As in the catalog,
+    /// the grid and the hash are built with their default cell options (`options` does not
+    /// apply to them) and the kd-tree takes only the leaf size.
     pub fn build(
         kind: AccelKind,
         mesh: impl Into<Arc<Mesh>>,
@@ -100,6 +104,9 @@ impl MeshTree {
                 Tree::Hybrid(Permuted::new(tree, order))
             }
             AccelKind::Grid => Tree::Grid(UniformGrid::build(mesh, &GridOptions::default())?),
+            AccelKind::Hash => {
+                Tree::Hash(SpatialHash::build(mesh, &SpatialHash::default_options())?)
+            }
             AccelKind::Kd => Tree::Kd(KdTree::build(mesh, options.max_leaf_size)?),
         };
         Ok(Self { tree, kind, bounds })
@@ -173,6 +180,10 @@ macro_rules! with_tree {
                 let $s = &mut $scratch.grid;
                 $body
             }
+            Tree::Hash($t) => {
+                let $s = &mut $scratch.hash;
+                $body
+            }
             Tree::Kd($t) => {
                 let $s = &mut $scratch.kd;
                 $body
@@ -234,6 +245,7 @@ impl MeshTree {
             Tree::Zbt(t) => t,
             Tree::Hybrid(t) => t,
             Tree::Grid(t) => t,
+            Tree::Hash(t) => t,
             Tree::Kd(t) => t,
         }
     }

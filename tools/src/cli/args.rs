@@ -37,8 +37,9 @@ bench: times tree builds and queries, per ray and batched, and prints Markdown t
 scene on stdout (progress goes to stderr).
   --mesh FILE.obj   benchmark this OBJ file (an object seen from around) instead of the
                     built-in scenes
-  --scenes LIST     comma-separated built-in scenes: bunny,terrain,city,instanced (default:
-                    all; instanced: scenes of many meshes placed as instances)
+  --scenes LIST     comma-separated built-in scenes: bunny,terrain,city,sparse,instanced
+                    (default: all but sparse; sparse is a sparse open world for the spatial
+                    hash; instanced: scenes of many meshes placed as instances)
   --rays N          rays per ray set (default 1000000, or 100000 with --quick); the fixed
                     and split-axis orderings get at most 200000
   --leaf N          largest leaf size, 1 to 16 (default 4)

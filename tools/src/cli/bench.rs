@@ -32,7 +32,13 @@ use crate::table::{Align, Table, ratio, thousands};
 use crate::workload::{COLUMNS, PASSES, RaySets, speed};
 
 /// The built-in scenes `--scenes` accepts.
-pub const SCENE_NAMES: [&str; 4] = ["bunny", "terrain", "city", crate::scene_bench::NAME];
+pub const SCENE_NAMES: [&str; 5] = [
+    "bunny",
+    "terrain",
+    "city",
+    "sparse",
+    crate::scene_bench::NAME,
+];
 
 /// Rays per set by default (the bunny included), with `--quick`, and at most for the orderings
 /// other than pns.
@@ -144,6 +150,7 @@ fn builtin_scene(name: &str) -> Scene {
         "bunny" => scenes::bunny(),
         "terrain" => scenes::terrain(scenes::BUILTIN_TERRAIN_CELLS),
         "city" => scenes::city(scenes::BUILTIN_CITY_BLOCKS),
+        "sparse" => scenes::sparse(scenes::BUILTIN_SPARSE_CLUSTERS),
         other => unreachable!("scene '{other}' passed the parser"),
     }
 }

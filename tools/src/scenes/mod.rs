@@ -10,6 +10,7 @@ mod city;
 pub mod instanced;
 pub mod rays;
 pub mod rng;
+mod sparse;
 mod terrain;
 
 pub use rays::{RaySet, generate};
@@ -44,9 +45,13 @@ pub const BUILTIN_TERRAIN_CELLS: u32 = 708;
 /// Blocks per side of the built-in city: about 100k triangles.
 pub const BUILTIN_CITY_BLOCKS: u32 = 48;
 
+/// Clusters of the built-in sparse world: 200 clusters of 40 rocks, 96,000 triangles.
+pub const BUILTIN_SPARSE_CLUSTERS: u32 = 200;
+
 /// Fixed seeds: the scenes are part of the benchmark's definition, not a parameter of it.
 const TERRAIN_SEED: u64 = 0x7e44_a1b0;
 const CITY_SEED: u64 = 0xc1_7e5;
+const SPARSE_SEED: u64 = 0x5ba_55e;
 
 /// The Stanford bunny (69,451 triangles), embedded in the binary.
 pub fn bunny() -> Scene {
@@ -81,6 +86,17 @@ pub fn city(blocks_per_side: u32) -> Scene {
     }
 }
 
+/// A sparse open world: `clusters` clusters of 40 small rocks (12 triangles each) scattered
+/// over a 10,000 x 2,000 x 10,000 volume, nothing in between (no ground): the spatial hash's
+/// home ground. Seen from around, like an object.
+pub fn sparse(clusters: u32) -> Scene {
+    Scene {
+        name: "sparse",
+        mesh: sparse::mesh(clusters, SPARSE_SEED),
+        kind: SceneKind::Object,
+    }
+}
+
 /// The scenes `raybatch bench` runs: the bunny, the 1M-triangle terrain and the city.
 pub fn builtin() -> Vec<Scene> {
     vec![
@@ -106,6 +122,8 @@ mod tests {
     #[test]
     fn scenes_are_deterministic() {
         assert_eq!(terrain(20).mesh, terrain(20).mesh);
+        assert_eq!(sparse(3).mesh, sparse(3).mesh);
+        assert_eq!(sparse(3).mesh.triangle_count(), 3 * 40 * 12);
         assert_eq!(city(5).mesh, city(5).mesh);
     }
 

@@ -1,0 +1,289 @@
+//! [`SpatialHash`]: the uniform grid's cells and walk, with only the non-empty cells stored,
+//! in a hash table (seed 004's spatial hash).
+//!
+//! A dense grid pays 4 bytes (an offset) for every cell, empty or not, which limits how fine
+//! it can be over a large, mostly empty world. The hash stores a 16-byte slot per *non-empty*
+//! cell (and keeps its table at most half full), so its memory follows the geometry, not the
+//! bounds, and the cells can be as fine as the triangles. The price is a table probe for each
+//! cell the walk crosses, where the dense grid reads one bit. Cells are those of the same
+//! exact walk ([`super::walk`]'s argument applies unchanged: only the lookup differs).
+
+use std::sync::Arc;
+
+use crate::accel::{Accel, Footprint};
+use crate::bvh::BuildError;
+use crate::geom::{Aabb, PreparedRay, TriangleTest};
+use crate::hit::Visitor;
+use crate::mesh::Mesh;
+
+use super::cells::{Block, blocks, for_each_cell, grid_planes, reference};
+use super::mailbox::Mailbox;
+use super::sizing::{GridOptions, cap, resolution};
+use super::table::CellTable;
+use super::uniform::{live_triangles, test_cell};
+use super::walk::{GridPlanes, walk};
+
+/// A triangle is stored at most this many times on average (else the cells are coarsened).
+const REFERENCES_PER_TRIANGLE: u64 = 16;
+
+/// Cells per triangle the hash aims at by default: 8 times the dense grid's, since empty
+/// cells cost it nothing.
+pub const HASH_CELLS_PER_TRIANGLE: f32 = 16.0;
+
+/// Largest number of cells along an axis (so that linear cell indices stay far below 2^63).
+const MAX_SLABS: u32 = 1 << 20;
+
+/// A spatial hash grid over a mesh (see the module docs).
+#[derive(Clone, Debug)]
+pub struct SpatialHash {
+    mesh: Arc<Mesh>,
+    planes: GridPlanes,
+    dims: [u32; 3],
+    table: CellTable,
+    refs: Vec<u32>,
+    coarse: Coarse,
+}
+
+/// One bit per block of `2^shift` cells along each axis, set if the block holds a stored cell:
+/// the walk skips the table probe (a cache miss) for cells of empty blocks, which in a sparse
+/// world are almost all the cells a ray crosses. The block size is the smallest that keeps the
+/// bits at most [`COARSE_BITS_PER_CELL`] per *stored* cell, so the map never makes the hash's
+/// memory follow the bounds.
+#[derive(Clone, Debug, Default)]
+struct Coarse {
+    shift: u32,
+    dims: [u64; 3],
+    bits: Vec<u64>,
+}
+
+/// Bits of the coarse map per stored cell, at most.
+const COARSE_BITS_PER_CELL: u64 = 8;
+
+impl Coarse {
+    /// The map of the cells `keys` (linear indices) of a `dims` grid.
+    fn new(dims: [u32; 3], cells: &[[u32; 3]]) -> Self {
+        let budget = COARSE_BITS_PER_CELL * cells.len().max(1) as u64;
+        let mut shift = 0;
+        let blocks = |shift: u32| dims.map(|d| u64::from(d).div_ceil(1 << shift));
+        while blocks(shift).iter().product::<u64>() > budget {
+            shift += 1;
+        }
+        let dims = blocks(shift);
+        let mut map = Self {
+            shift,
+            dims,
+            bits: vec![0; (dims.iter().product::<u64>() as usize).div_ceil(64)],
+        };
+        for &cell in cells {
+            let b = map.block(cell);
+            map.bits[b / 64] |= 1 << (b % 64);
+        }
+        map
+    }
+
+    /// The block holding `cell`.
+    #[inline(always)]
+    fn block(&self, cell: [u32; 3]) -> usize {
+        let [x, y, z] = cell.map(|c| u64::from(c >> self.shift));
+        (x + self.dims[0] * (y + self.dims[1] * z)) as usize
+    }
+
+    /// True if `cell`'s block may hold a stored cell.
+    #[inline(always)]
+    fn may_hold(&self, cell: [u32; 3]) -> bool {
+        let b = self.block(cell);
+        self.bits[b / 64] & (1 << (b % 64)) != 0
+    }
+
+    fn heap_bytes(&self) -> usize {
+        self.bits.len() * size_of::<u64>()
+    }
+}
+
+impl SpatialHash {
+    /// The default options: [`HASH_CELLS_PER_TRIANGLE`], no cap on the total cell count
+    /// beyond `2^20` per axis.
+    pub fn default_options() -> GridOptions {
+        GridOptions {
+            cells_per_triangle: HASH_CELLS_PER_TRIANGLE,
+            max_cells: u32::MAX,
+            resolution: None,
+        }
+    }
+
+    /// Builds the hash grid. `options` size the cells as for the dense grid, but `max_cells`
+    /// may be far larger (only non-empty cells are stored). An empty mesh gives a grid every
+    /// ray misses.
+    pub fn build(mesh: impl Into<Arc<Mesh>>, options: &GridOptions) -> Result<Self, BuildError> {
+        let mesh = mesh.into();
+        let (live, bounds) = live_triangles(&mesh)?;
+        if live.is_empty() {
+            return Ok(Self {
+                mesh,
+                planes: grid_planes(&Aabb::new(bounds.min, bounds.min), [1; 3]),
+                dims: [1; 3],
+                table: CellTable::default(),
+                refs: Vec::new(),
+                coarse: Coarse::default(),
+            });
+        }
+        let mut dims = resolution(&bounds, live.len(), options).map(|d| d.min(MAX_SLABS));
+        let max_refs = (REFERENCES_PER_TRIANGLE * live.len() as u64).min(u64::from(u32::MAX));
+        loop {
+            let planes = grid_planes(&bounds, dims);
+            let blocks = blocks(&mesh, &live, &planes);
+            let needed: u64 = blocks.iter().map(super::cells::block_cells).sum();
+            if needed <= max_refs || dims == [1; 3] {
+                let (table, refs, cells) = fill(dims, &live, &blocks);
+                return Ok(Self {
+                    mesh,
+                    planes,
+                    dims,
+                    table,
+                    refs,
+                    coarse: Coarse::new(dims, &cells),
+                });
+            }
+            let cells: u64 = dims.iter().map(|&d| u64::from(d)).product();
+            dims = cap(dims, (cells / 2).clamp(1, u64::from(u32::MAX)) as u32);
+        }
+    }
+
+    /// The mesh the grid was built over; triangle ids refer to it.
+    pub fn mesh(&self) -> &Mesh {
+        &self.mesh
+    }
+
+    /// Cells along x, y and z (most of them empty and not stored).
+    pub fn resolution(&self) -> [u32; 3] {
+        self.dims
+    }
+
+    /// Non-empty cells (the only ones stored).
+    pub fn stored_cells(&self) -> usize {
+        self.table.len()
+    }
+
+    /// Triangle references stored in the cells.
+    pub fn reference_count(&self) -> usize {
+        self.refs.len()
+    }
+
+    /// The linear index of cell `[x, y, z]`.
+    #[inline(always)]
+    fn key(&self, cell: [u32; 3]) -> u64 {
+        let [x, y, z] = cell.map(u64::from);
+        let [nx, ny, _] = self.dims.map(u64::from);
+        x + nx * (y + ny * z)
+    }
+}
+
+/// The table, the reference array and the non-empty cells: every (cell, reference) pair
+/// sorted by cell, then id, so that each non-empty cell's references are one run.
+fn fill(dims: [u32; 3], live: &[u32], blocks: &[Block]) -> (CellTable, Vec<u32>, Vec<[u32; 3]>) {
+    let [nx, ny, _] = dims.map(u64::from);
+    let mut pairs: Vec<(u64, u32)> = Vec::new();
+    for (&id, block) in live.iter().zip(blocks) {
+        let r = reference(id, block);
+        for_each_cell(block, |x, y, z| {
+            pairs.push((u64::from(x) + nx * (u64::from(y) + ny * u64::from(z)), r))
+        });
+    }
+    pairs.sort_unstable();
+    let cells = pairs.chunk_by(|a, b| a.0 == b.0).count();
+    let mut table = CellTable::with_capacity(cells);
+    let mut refs = Vec::with_capacity(pairs.len());
+    let mut stored = Vec::with_capacity(cells);
+    for run in pairs.chunk_by(|a, b| a.0 == b.0) {
+        let key = run[0].0;
+        table.insert(key, refs.len() as u32, run.len() as u32);
+        refs.extend(run.iter().map(|p| p.1));
+        let (x, yz) = (key % nx, key / nx);
+        stored.push([x, yz % ny, yz / ny].map(|c| c as u32));
+    }
+    (table, refs, stored)
+}
+
+impl Accel for SpatialHash {
+    type Scratch = Mailbox;
+
+    fn trace<K: TriangleTest, V: Visitor>(
+        &self,
+        ray: &PreparedRay,
+        id: u32,
+        mailbox: &mut Mailbox,
+        visitor: &mut V,
+    ) -> f32 {
+        let mut tmax = ray.tmax;
+        if self.refs.is_empty() {
+            return tmax;
+        }
+        mailbox.next_ray();
+        walk(&self.planes, ray, &mut tmax, |cell, tmax| {
+            if !self.coarse.may_hold(cell) {
+                return;
+            }
+            let (first, count) = self.table.get(self.key(cell));
+            let refs = &self.refs[first as usize..(first + count) as usize];
+            test_cell::<K, V>(&self.mesh, refs, ray, id, mailbox, tmax, visitor);
+        });
+        tmax
+    }
+}
+
+impl Footprint for SpatialHash {
+    fn name(&self) -> &'static str {
+        "hash"
+    }
+
+    fn triangle_count(&self) -> usize {
+        self.mesh.triangle_count()
+    }
+
+    fn node_count(&self) -> usize {
+        self.table.len()
+    }
+
+    fn heap_bytes(&self) -> usize {
+        self.table.heap_bytes()
+            + self.coarse.heap_bytes()
+            + self.refs.len() * size_of::<u32>()
+            + self.planes.iter().map(|p| p.heap_bytes()).sum::<usize>()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use glam::Vec3;
+
+    use super::*;
+    use crate::grid::UniformGrid;
+
+    /// Two small triangles at opposite corners of a large box: almost every cell is empty.
+    fn sparse_mesh() -> Mesh {
+        let v = vec![
+            Vec3::new(0.0, 0.0, 0.0),
+            Vec3::new(1.0, 0.0, 0.0),
+            Vec3::new(0.0, 1.0, 0.0),
+            Vec3::new(99.0, 99.0, 100.0),
+            Vec3::new(100.0, 99.0, 100.0),
+            Vec3::new(100.0, 100.0, 100.0),
+        ];
+        Mesh::new(v, vec![[0, 1, 2], [3, 4, 5]]).unwrap()
+    }
+
+    #[test]
+    fn only_non_empty_cells_are_stored() {
+        let options = GridOptions {
+            resolution: Some([50, 50, 50]),
+            ..SpatialHash::default_options()
+        };
+        let hash = SpatialHash::build(sparse_mesh(), &options).unwrap();
+        assert_eq!(hash.resolution(), [50, 50, 50]);
+        // Each triangle's box lies within one cell of 2 x 2 x 2 units.
+        assert_eq!(hash.stored_cells(), 2);
+        assert_eq!(hash.reference_count(), 2);
+        let dense = UniformGrid::build(sparse_mesh(), &options).unwrap();
+        assert!(hash.heap_bytes() * 100 < dense.heap_bytes());
+    }
+}
