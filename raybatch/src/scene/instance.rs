@@ -124,3 +124,79 @@ fn l1(v: Vec3) -> f32 {
 pub(crate) fn grown(b: &Aabb, pad: f32) -> Aabb {
     Aabb::new(b.min - pad, b.max + pad)
 }
+
+#[cfg(test)]
+mod tests {
+    use glam::Quat;
+
+    use super::*;
+    use crate::geom::Ray;
+    use crate::test_support::TestRng;
+
+    /// The padding argument, checked where it is tightest: instances far from the origin,
+    /// rotated, seen from rays whose origins are far from both. For a point `p` of the mesh
+    /// box, the world ray through `p`'s world image is carried into mesh space as the scene
+    /// does; at the `t` where that mesh-space ray passes closest to `p` (where a hit on `p`'s
+    /// triangle would be found), the *world* ray, evaluated exactly in f64, must lie in the
+    /// padded world box. Without the padding this fails (checked below), so the test has teeth.
+    #[test]
+    fn padded_boxes_hold_the_world_ray_at_every_mesh_space_hit() {
+        let mut rng = TestRng::new(5);
+        let mut unpadded_misses = 0;
+        for round in 0..20_000 {
+            let scale = [1.0, 1e3, 1e5][round % 3];
+            let axis = rng.vec3(1.0).try_normalize().unwrap_or(Vec3::Y);
+            // Half the instances unrotated: their mesh box's faces are world box faces.
+            let angle = if round % 4 < 2 {
+                0.0
+            } else {
+                rng.range(0.0, 6.3)
+            };
+            let rotation = Quat::from_axis_angle(axis, angle);
+            let transform = Rigid::new(rotation, rng.vec3(scale)).unwrap();
+            let a = rng.vec3(10.0);
+            let mesh_box = Aabb::new(a, a + rng.vec3(5.0).abs() + 1e-3);
+            // A point on a face of the box, where rounding can carry it outside.
+            let mut p = mesh_box.min + (mesh_box.max - mesh_box.min) * rng.vec3(1.0).abs();
+            let face = if round % 2 == 0 {
+                mesh_box.min
+            } else {
+                mesh_box.max
+            };
+            p[round % 3] = face[round % 3];
+            let origin = rng.vec3(scale * 2.0);
+            let target = transform.point_to_world(p);
+            let world = Ray::new(origin, target - origin);
+            let mesh = transform.ray_to_mesh(&world);
+            // t where the mesh-space ray passes closest to p, and the world ray there, in f64.
+            let (o, d) = (mesh.origin.as_dvec3(), mesh.dir.as_dvec3());
+            let t = (p.as_dvec3() - o).dot(d) / d.length_squared();
+            let at = world.origin.as_dvec3() + world.dir.as_dvec3() * t;
+            let boxed = |b: Aabb| {
+                let (lo, hi) = (b.min.as_dvec3(), b.max.as_dvec3());
+                at.cmpge(lo).all() && at.cmple(hi).all()
+            };
+            let padded = grown(&world_box(mesh_box, &transform), ray_pad(origin));
+            assert!(
+                boxed(padded),
+                "{transform:?} {mesh_box:?} {world:?} at {at:?}"
+            );
+            // The same box without either pad: the world image of the mesh box's corners.
+            let unpadded = (0..8).fold(Aabb::EMPTY, |b, i| {
+                let pick = |bit: usize, lo: f32, hi: f32| if i >> bit & 1 == 0 { lo } else { hi };
+                let (lo, hi) = (mesh_box.min, mesh_box.max);
+                let c = Vec3::new(
+                    pick(0, lo.x, hi.x),
+                    pick(1, lo.y, hi.y),
+                    pick(2, lo.z, hi.z),
+                );
+                b.grow(transform.point_to_world(c))
+            });
+            unpadded_misses += !boxed(unpadded) as u32;
+        }
+        assert!(
+            unpadded_misses > 100,
+            "the padding was needed {unpadded_misses} times"
+        );
+    }
+}
