@@ -31,6 +31,12 @@ use crate::scene::{Scene, SceneMesh};
 /// Relative distance (of `t`) within which hits are one crossing: `2^-16`, far above the
 /// rounding of `t` (a few units in the last place, plus the instance transform's) and far below
 /// the spacing of real walls (6 mm at 400 m).
+///
+/// Known limit: the tolerance is relative to `t` only, while a rotated instance's rounding of
+/// `t` grows with the distance from the ray's origin to the instance (see
+/// [`crate::scene::rigid`]); at a seam between two *rotated* instances far from a source that
+/// is close to the seam, the two sides' `t` may differ by more, and the seam would count as two
+/// crossings. Seams between translated instances and shared edges within a mesh are exact.
 pub const CROSSING_TOLERANCE: f32 = 1.0 / 65536.0;
 
 /// Why a material table was refused.
