@@ -70,6 +70,20 @@ impl Aabb {
         self.max - self.min
     }
 
+    /// The 8 corners; corner `i` takes the max on x if bit 0 of `i` is set, on y for bit 1, on
+    /// z for bit 2 (so corner 0 is `min` and corner 7 is `max`).
+    pub fn corners(&self) -> [Vec3; 8] {
+        let (lo, hi) = (self.min, self.max);
+        std::array::from_fn(|i| {
+            let pick = |bit: usize, lo: f32, hi: f32| if i >> bit & 1 == 0 { lo } else { hi };
+            Vec3::new(
+                pick(0, lo.x, hi.x),
+                pick(1, lo.y, hi.y),
+                pick(2, lo.z, hi.z),
+            )
+        })
+    }
+
     /// The middle point.
     pub fn center(&self) -> Vec3 {
         (self.min + self.max) * 0.5

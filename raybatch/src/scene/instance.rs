@@ -89,16 +89,8 @@ pub(crate) fn world_box(mesh_box: Aabb, transform: &Rigid) -> Aabb {
     if mesh_box.is_empty() {
         return Aabb::EMPTY;
     }
-    let corners = (0..8).map(|i| {
-        let pick = |bit: usize, lo: f32, hi: f32| if i >> bit & 1 == 0 { lo } else { hi };
-        Vec3::new(
-            pick(0, mesh_box.min.x, mesh_box.max.x),
-            pick(1, mesh_box.min.y, mesh_box.max.y),
-            pick(2, mesh_box.min.z, mesh_box.max.z),
-        )
-    });
     let (mut world, mut reach) = (Aabb::EMPTY, 0.0f32);
-    for c in corners {
+    for c in mesh_box.corners() {
         world = world.grow(transform.point_to_world(c));
         reach = reach.max(l1(c));
     }
@@ -182,16 +174,10 @@ mod tests {
                 "{transform:?} {mesh_box:?} {world:?} at {at:?}"
             );
             // The same box without either pad: the world image of the mesh box's corners.
-            let unpadded = (0..8).fold(Aabb::EMPTY, |b, i| {
-                let pick = |bit: usize, lo: f32, hi: f32| if i >> bit & 1 == 0 { lo } else { hi };
-                let (lo, hi) = (mesh_box.min, mesh_box.max);
-                let c = Vec3::new(
-                    pick(0, lo.x, hi.x),
-                    pick(1, lo.y, hi.y),
-                    pick(2, lo.z, hi.z),
-                );
-                b.grow(transform.point_to_world(c))
-            });
+            let unpadded = mesh_box
+                .corners()
+                .into_iter()
+                .fold(Aabb::EMPTY, |b, c| b.grow(transform.point_to_world(c)));
             unpadded_misses += !boxed(unpadded) as u32;
         }
         assert!(

@@ -55,15 +55,8 @@ impl World {
             if m.is_empty() {
                 continue;
             }
-            for corner in 0..8 {
-                let pick =
-                    |bit: u32, lo: f32, hi: f32| if corner >> bit & 1 == 0 { lo } else { hi };
-                let p = Vec3::new(
-                    pick(0, m.min.x, m.max.x),
-                    pick(1, m.min.y, m.max.y),
-                    pick(2, m.min.z, m.max.z),
-                );
-                out = out.grow(i.transform.point_to_world(p));
+            for corner in m.corners() {
+                out = out.grow(i.transform.point_to_world(corner));
             }
         }
         out
@@ -150,28 +143,9 @@ pub fn large(terrain_cells: u32, city_blocks: u32) -> World {
 
 /// A closed box of size `extent` with a corner at the origin (12 triangles).
 pub fn crate_mesh(extent: Vec3) -> Mesh {
-    let v: Vec<Vec3> = (0..8)
-        .map(|i| {
-            Vec3::new(
-                if i & 1 == 0 { 0.0 } else { extent.x },
-                if i & 2 == 0 { 0.0 } else { extent.y },
-                if i & 4 == 0 { 0.0 } else { extent.z },
-            )
-        })
-        .collect();
-    let quads = [
-        [0, 2, 3, 1],
-        [4, 5, 7, 6],
-        [0, 1, 5, 4],
-        [2, 6, 7, 3],
-        [0, 4, 6, 2],
-        [1, 3, 7, 5],
-    ];
-    let triangles = quads
-        .iter()
-        .flat_map(|&[a, b, c, d]| [[a, b, c], [a, c, d]])
-        .collect();
-    Mesh::new(v, triangles).expect("a box is a valid mesh")
+    let (mut vertices, mut triangles) = (Vec::new(), Vec::new());
+    super::push_box(&mut vertices, &mut triangles, Aabb::new(Vec3::ZERO, extent));
+    Mesh::new(vertices, triangles).expect("a box is a valid mesh")
 }
 
 /// `count` props (crates of 8 sizes) over `[0, size]^2` at ground level, each turned by a

@@ -16,7 +16,8 @@ mod terrain;
 pub use rays::{RaySet, generate};
 pub use rng::SplitMix64;
 
-use raybatch::Mesh;
+use raybatch::glam::Vec3;
+use raybatch::{Aabb, Mesh};
 
 /// A named mesh and what kind of scene it is.
 #[derive(Clone, Debug)]
@@ -104,6 +105,25 @@ pub fn builtin() -> Vec<Scene> {
         terrain(BUILTIN_TERRAIN_CELLS),
         city(BUILTIN_CITY_BLOCKS),
     ]
+}
+
+/// Appends the 12 triangles of the closed box `bounds` (its corners in [`Aabb::corners`]
+/// order), outward-facing: the crates of the instanced worlds and the rocks of the sparse one.
+pub(crate) fn push_box(vertices: &mut Vec<Vec3>, triangles: &mut Vec<[u32; 3]>, bounds: Aabb) {
+    const FACES: [[u32; 4]; 6] = [
+        [0, 2, 3, 1],
+        [4, 5, 7, 6],
+        [0, 1, 5, 4],
+        [2, 6, 7, 3],
+        [0, 4, 6, 2],
+        [1, 3, 7, 5],
+    ];
+    let base = vertices.len() as u32;
+    vertices.extend(bounds.corners());
+    for [a, b, c, d] in FACES {
+        triangles.push([base + a, base + b, base + c]);
+        triangles.push([base + a, base + c, base + d]);
+    }
 }
 
 #[cfg(test)]

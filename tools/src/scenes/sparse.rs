@@ -5,9 +5,10 @@
 //! almost every cell of a grid over the bounds is empty, and a grid fine enough for the rocks
 //! stores billions of empty cells unless only the non-empty ones are kept.
 
-use raybatch::Mesh;
 use raybatch::glam::Vec3;
+use raybatch::{Aabb, Mesh};
 
+use super::push_box;
 use super::rng::SplitMix64;
 
 /// Side of the world along x and z.
@@ -32,33 +33,12 @@ pub(crate) fn mesh(clusters: u32, seed: u64) -> Mesh {
                 rng.range_f32(0.5, 4.0),
                 rng.range_f32(0.5, 4.0),
             );
-            rock(&mut vertices, &mut triangles, at - half, at + half);
+            push_box(
+                &mut vertices,
+                &mut triangles,
+                Aabb::new(at - half, at + half),
+            );
         }
     }
     Mesh::new(vertices, triangles).expect("a generated world is always a valid mesh")
-}
-
-/// Appends the 12 triangles of the box `[min, max]`.
-fn rock(vertices: &mut Vec<Vec3>, triangles: &mut Vec<[u32; 3]>, min: Vec3, max: Vec3) {
-    let base = vertices.len() as u32;
-    for i in 0..8 {
-        let pick = |bit: u32, lo: f32, hi: f32| if i & bit == 0 { lo } else { hi };
-        vertices.push(Vec3::new(
-            pick(1, min.x, max.x),
-            pick(2, min.y, max.y),
-            pick(4, min.z, max.z),
-        ));
-    }
-    const FACES: [[u32; 4]; 6] = [
-        [0, 2, 3, 1],
-        [4, 5, 7, 6],
-        [0, 1, 5, 4],
-        [2, 6, 7, 3],
-        [0, 4, 6, 2],
-        [1, 3, 7, 5],
-    ];
-    for [a, b, c, d] in FACES {
-        triangles.push([base + a, base + b, base + c]);
-        triangles.push([base + a, base + c, base + d]);
-    }
 }
