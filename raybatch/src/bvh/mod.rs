@@ -18,11 +18,15 @@
 //! - [`nodes`]: the node formats (full 32-byte, quantized 16-byte).
 //! - `leaves`: the leaf triangles in slot order, shared by every tree the builder makes.
 //! - [`tree`]: [`AabbTree`], a mesh plus a node array in one of the formats.
+//! - [`quantized_vertices`]: [`QuantizedVertexTree`], the same over a quantized-vertex mesh.
+//! - [`counted`]: [`Counted`], any tree counting its node visits.
 
 pub mod build;
+pub mod counted;
 pub(crate) mod leaves;
 pub mod nodes;
 pub mod ordering;
+pub mod quantized_vertices;
 pub mod tree;
 
 use glam::Vec3;
@@ -30,7 +34,9 @@ use glam::Vec3;
 use crate::geom::Aabb;
 
 pub use build::{BuildError, BuildOptions};
+pub use counted::Counted;
 pub use ordering::ChildOrdering;
+pub use quantized_vertices::QuantizedVertexTree;
 pub use tree::{AabbTree, QuantizedAabbTree};
 
 /// A node's contents, without its box: its triangles and its children.

@@ -10,6 +10,7 @@
 //! area) are valid too: they keep their id but are never hit.
 
 pub mod obj;
+pub mod quantized;
 
 use glam::Vec3;
 use std::path::Path;
