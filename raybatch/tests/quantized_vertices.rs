@@ -1,0 +1,116 @@
+//! Quantized vertices: a tree over a quantized mesh answers exactly like brute force over the
+//! dequantized mesh (every query, both kernels, both node formats, batched == per ray), every
+//! decoded vertex is within half a grid step of the original, and the visit counter changes
+//! no answer.
+
+mod common;
+
+use std::sync::Arc;
+
+use common::meshes::bunny;
+use common::oracles::{compare_all, describe, opt_bits};
+use common::rays::incoherent;
+use common::rng::seeded;
+use common::strategies::{RaySpec, mesh_strategy, ray_spec};
+use common::zoo::Structure;
+use proptest::prelude::*;
+use raybatch::bvh::nodes::QuantizedNodes;
+use raybatch::bvh::{Counted, QuantizedVertexTree};
+use raybatch::mesh::quantized::QuantizedMesh;
+use raybatch::{AabbTree, AnyAccel, BuildOptions, Mesh, QuantizedAabbTree, RayQueries};
+
+/// Trees over `q` with both node formats and leaf sizes 1 and 4.
+fn trees(q: &QuantizedMesh) -> Vec<Structure> {
+    let mut out = Vec::new();
+    for leaf in [1, 4] {
+        let options = BuildOptions::default().with_leaf_size(leaf);
+        let full = QuantizedVertexTree::<raybatch::bvh::nodes::FullNodes>::build(q.clone(), &options);
+        let quantized = QuantizedVertexTree::<QuantizedNodes>::build(q.clone(), &options);
+        out.push(Structure {
+            name: format!("qv{}/full/leaf{leaf}", q.grid().bits),
+            accel: AnyAccel::new(full.unwrap()),
+        });
+        out.push(Structure {
+            name: format!("qv{}/quantized-nodes/leaf{leaf}", q.grid().bits),
+            accel: AnyAccel::new(quantized.unwrap()),
+        });
+    }
+    out
+}
+
+fn check(mesh: &Mesh, bits: u32, specs: &[RaySpec]) -> Result<(), TestCaseError> {
+    let q = QuantizedMesh::new(mesh, bits).unwrap();
+    let decoded = q.dequantize();
+    let half = q.grid().max_error().as_dvec3();
+    for (i, v) in mesh.vertices().iter().enumerate() {
+        let err = (q.vertex(i as u32).as_dvec3() - v.as_dvec3()).abs();
+        prop_assert!(err.cmple(half).all(), "vertex {i}: error {err} > {half}");
+    }
+    let zoo = trees(&q);
+    let rays: Vec<_> = specs.iter().map(|s| s.resolve(&decoded)).collect();
+    for ray in &rays {
+        compare_all(&decoded, &zoo, ray).map_err(|e| {
+            TestCaseError::fail(format!("{bits} bits: {e}\nmesh: {}", describe(&decoded)))
+        })?;
+    }
+    for t in &zoo {
+        let mut batched = vec![None; rays.len()];
+        t.accel.cast_rays(&rays, &mut batched).unwrap();
+        for (ray, b) in rays.iter().zip(batched) {
+            prop_assert_eq!(opt_bits(b), opt_bits(t.accel.cast_ray(ray)), "{}", t.name);
+        }
+    }
+    Ok(())
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(96))]
+
+    /// Random soups (shared, degenerate, duplicated, coplanar triangles, sometimes over a
+    /// closed icosphere) at 16, 10, 8 bits and coarser, random rays.
+    #[test]
+    fn quantized_trees_match_brute_force_over_the_dequantized_mesh(
+        mesh in mesh_strategy(),
+        bits in prop_oneof![Just(16u32), Just(10), Just(8), 1u32..=16],
+        specs in prop::collection::vec(ray_spec(), 24),
+    ) {
+        check(&mesh, bits, &specs)?;
+    }
+}
+
+#[test]
+fn bunny_at_16_bits_half_the_vertex_bytes_and_exact_for_its_mesh() {
+    let mesh = bunny();
+    let q = QuantizedMesh::new(&mesh, 16).unwrap();
+    assert!(2 * q.vertex_bytes() <= mesh.vertices().len() * size_of::<glam::Vec3>());
+    let tree = QuantizedVertexTree::<raybatch::bvh::nodes::FullNodes>::build(q.clone(), &BuildOptions::default()).unwrap();
+    let exact = AabbTree::<raybatch::bvh::nodes::FullNodes>::build(q.dequantize(), &BuildOptions::default()).unwrap();
+    let rays = incoherent(&mesh, 2_000, &mut seeded(16));
+    for ray in &rays {
+        assert_eq!(opt_bits(tree.cast_ray(ray)), opt_bits(exact.cast_ray(ray)), "{ray:?}");
+    }
+}
+
+#[test]
+fn counting_visits_changes_no_answer_and_quantized_boxes_visit_at_least_as_many() {
+    let mesh = Arc::new(bunny());
+    let options = BuildOptions::default();
+    let full = Counted::new(AabbTree::<raybatch::bvh::nodes::FullNodes>::build(mesh.clone(), &options).unwrap());
+    let quantized = Counted::new(QuantizedAabbTree::build(mesh.clone(), &options).unwrap());
+    let rays = incoherent(&mesh, 2_000, &mut seeded(17));
+    for ray in &rays {
+        let expected = opt_bits(full.inner().cast_ray(ray));
+        assert_eq!(opt_bits(full.cast_ray(ray)), expected);
+        assert_eq!(opt_bits(quantized.cast_ray(ray)), expected);
+        // all_hits visits every node whose box the ray touches: quantized boxes contain the
+        // full ones over the same topology, so they are touched at least as often.
+        full.take();
+        quantized.take();
+        let (a, b) = (full.all_hits(ray), quantized.all_hits(ray));
+        assert_eq!(a, b);
+        assert!(quantized.take() >= full.take(), "{ray:?}");
+    }
+    assert_eq!(full.visits(), 0);
+    full.cast_ray(&rays[0]);
+    assert!(full.visits() > 0);
+}
