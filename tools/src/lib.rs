@@ -3,11 +3,13 @@
 //! What surrounds the `raybatch` library without being part of it: the built-in benchmark scenes
 //! and ray sets ([`scenes`]), shared by the `raybatch` command (`bench`, `query`), the criterion
 //! benchmarks, the examples and the peer comparison (`peers/`). A game that links `raybatch`
-//! never compiles any of this.
+//! never compiles any of this. [`judge`] is the `f64` reference that scores how wrong a mode's
+//! answers are.
 //!
 //! The command itself lives in `src/cli/` (a binary target, not part of this library).
 
 #![warn(missing_docs)]
 #![deny(unsafe_code)]
 
+pub mod judge;
 pub mod scenes;
