@@ -12,4 +12,5 @@
 #![deny(unsafe_code)]
 
 pub mod judge;
+pub mod report;
 pub mod scenes;

@@ -7,6 +7,7 @@
 //! (see [`rng`] for why that needs our own generator).
 
 mod city;
+pub mod closed;
 pub mod instanced;
 pub mod rays;
 pub mod rng;
