@@ -457,8 +457,13 @@ fn tables(text: &str) -> Vec<Vec<&str>> {
 }
 
 #[test]
-fn quick_bench_prints_the_tables() {
-    let output = raybatch(&["bench", "--quick", "--scenes", "bunny", "--rays", "2000"]);
+fn quick_bench_prints_the_tables_and_writes_the_report() {
+    let target = TempDir::new("bench_report");
+    let output = Command::new(env!("CARGO_BIN_EXE_raybatch"))
+        .args(["bench", "--quick", "--scenes", "bunny", "--rays", "2000"])
+        .env("CARGO_TARGET_DIR", &target.0)
+        .output()
+        .expect("run raybatch");
     let out = String::from_utf8_lossy(&output.stdout);
     assert!(output.status.success(), "{}", stderr(&output));
     assert!(out.contains("### bunny (69,451 triangles)"), "{out}");
@@ -470,7 +475,7 @@ fn quick_bench_prints_the_tables() {
         assert!(out.contains(line), "no '{line}' in {out}");
     }
     let tables = tables(&out);
-    assert_eq!(tables.len(), 3, "{out}");
+    assert_eq!(tables.len(), 5, "{out}");
     // Header, rule, and one row per structure of the catalog (--quick: pns only).
     let kinds = raybatch::AccelKind::ALL;
     let main = &tables[0];
@@ -497,5 +502,18 @@ fn quick_bench_prints_the_tables() {
         sweep[2].contains(" 64 |") && sweep[3].contains("2,000 (all)"),
         "{out}"
     );
+    // Modes: 9 modes x 5 ray sets; leaks: 3 closed meshes x 9 modes.
+    assert_eq!(tables[3].len(), 2 + 9 * 5, "{out}");
+    assert!(tables[3][2].starts_with("| bvh4 watertight "), "{out}");
+    assert_eq!(tables[4].len(), 2 + 3 * 9, "{out}");
     assert!(stderr(&output).contains("bunny: aabb/pns: building"));
+    let report = target.0.join("raybatch-report");
+    let csv = std::fs::read_to_string(report.join("report.csv")).expect("report.csv written");
+    assert!(csv.starts_with("machine,commit,date,section,"), "{csv}");
+    assert!(csv.lines().any(|l| l.contains(",modes,bunny,aabb 16-bit vertices,")), "{csv}");
+    let page = std::fs::read_to_string(report.join("index.html")).expect("index.html written");
+    for chart in ["speed_vs_error", "speed_vs_memory", "per_ray_vs_batched", "batch_size_sweep"] {
+        assert!(page.contains(&format!("{chart}.svg")), "no {chart} in the page");
+        assert!(report.join(format!("{chart}.svg")).is_file(), "no {chart}.svg");
+    }
 }

@@ -40,10 +40,10 @@ scene on stdout (progress goes to stderr).
   --scenes LIST     comma-separated built-in scenes: bunny,terrain,city,sparse,instanced
                     (default: all but sparse; sparse is a sparse open world for the spatial
                     hash; instanced: scenes of many meshes placed as instances)
-  --rays N          rays per ray set (default 1000000, or 100000 with --quick); the fixed
-                    and split-axis orderings get at most 200000
+  --rays N          rays per ray set (default 100000, or 20000 with --quick); with --rays,
+                    the fixed and split-axis orderings are timed too, on at most 200000
   --leaf N          largest leaf size, 1 to 16 (default 4)
-  --quick           100000 rays (unless --rays), the pns ordering only and three batch
+  --quick           20000 rays (unless --rays), the pns ordering only and three batch
                     sizes, a smoke test
 
 query: answers the rays of RAYS.bin against MESH.obj, writes the answers to HITS.bin and

@@ -20,6 +20,7 @@ use std::sync::Arc;
 
 use raybatch::query::brute_force;
 use raybatch::{AccelKind, AnyAccel, BuildOptions, ChildOrdering, Footprint, Kernel, Mesh};
+use raybatch_tools::report::{Record, Section};
 use raybatch_tools::scenes::{self, RaySet, Scene, SceneKind};
 
 use crate::args::BenchArgs;
@@ -41,9 +42,10 @@ pub const SCENE_NAMES: [&str; 5] = [
 ];
 
 /// Rays per set by default (the bunny included), with `--quick`, and at most for the orderings
-/// other than pns.
-const DEFAULT_RAYS: usize = 1_000_000;
-const QUICK_RAYS: usize = 100_000;
+/// other than pns (timed only when `--rays` asks for a long run). The default keeps the whole
+/// run, report included, under five minutes on two cores.
+const DEFAULT_RAYS: usize = 100_000;
+const QUICK_RAYS: usize = 20_000;
 const VARIANT_RAYS: usize = 200_000;
 /// Batch sizes of the sweep (below the ray count; the whole set is always the last size).
 const SWEEP_SIZES: [usize; 6] = [64, 256, 1 << 10, 1 << 12, 1 << 14, 1 << 16];
@@ -65,8 +67,10 @@ impl Plan {
         let rays = args.rays.unwrap_or(default_rays);
         let (orderings, batch_sizes): (&'static [_], &'static [_]) = if args.quick {
             (&[ChildOrdering::Pns], &QUICK_SWEEP_SIZES)
-        } else {
+        } else if args.rays.is_some() {
             (&ChildOrdering::ALL, &SWEEP_SIZES)
+        } else {
+            (&[ChildOrdering::Pns], &SWEEP_SIZES)
         };
         Self {
             rays,
@@ -122,6 +126,15 @@ pub fn run(args: &BenchArgs) -> Result<(), CliError> {
     if instanced {
         println!("{}", crate::scene_bench::section(plan.rays));
     }
+    if args.mesh.is_none() {
+        let (leaks, records) = crate::modes::leaks(plan.rays.min(crate::modes::LEAK_RAYS));
+        println!("{leaks}");
+        crate::records::push(records);
+    }
+    let dir = crate::records::report_dir();
+    let page = crate::records::write_report(&dir)
+        .map_err(|e| CliError::input(format!("cannot write the report to {}: {e}", dir.display())))?;
+    progress(&format!("report written: {} (and report.csv beside it)", page.display()));
     Ok(())
 }
 
@@ -250,6 +263,9 @@ fn bench_scene(scene: &BenchScene, plan: &Plan) -> String {
         bench_kind(kind, scene, plan, &rays, &mut report);
     }
     report.zero_memory = zero_memory(scene, &rays.all, &report.rows);
+    let (modes, records) = crate::modes::section(&scene.name, &scene.mesh, &rays.all);
+    crate::records::push(records);
+    report.details.push(modes);
     report.render(scene, plan)
 }
 
@@ -280,8 +296,23 @@ fn bench_kind(
                 default_tree_extras(&subject, scene, plan, &rays.all, &row, report);
             }
         }
+        crate::records::push(main_records(&scene.name, &row));
         report.rows.push(row);
     }
+}
+
+/// The report's rows of one main-table row: one per query column.
+fn main_records(scene: &str, row: &Row) -> Vec<Record> {
+    let mode = format!("{}/{}", row.tree.name(), row.ordering.name());
+    COLUMNS
+        .iter()
+        .zip(&row.mrays)
+        .map(|(c, &m)| {
+            let mut r = Record::new(Section::Main, scene, &mode, &c.title(), "per-ray").speed(m);
+            r.bytes_per_triangle = Some(row.bytes_per_triangle);
+            r
+        })
+        .collect()
 }
 
 /// Rays brute force is timed on: it tests every triangle, so a few thousand say enough, and

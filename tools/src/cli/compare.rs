@@ -7,6 +7,7 @@
 //! (the same queries); the one-line comparisons time both sides back to back.
 
 use raybatch::{AnyAccel, BatchOrdering, Kernel, PartitionKernel, Ray};
+use raybatch_tools::report::{Record, Section};
 
 use crate::bench::progress;
 use crate::runner::{Engine, Query, QueryKind};
@@ -41,6 +42,21 @@ impl BatchedRow {
     /// Batched on one thread with the faster ordering.
     fn best(&self) -> f64 {
         self.by_octant.max(self.unordered)
+    }
+
+    /// The report's rows: one per engine.
+    fn records(&self, scene: &str) -> Vec<Record> {
+        let threads = format!("batched {THREADS} threads");
+        let engines = [
+            ("per-ray", self.per_ray),
+            ("batched by-octant", self.by_octant),
+            ("batched unordered", self.unordered),
+            (threads.as_str(), self.parallel),
+        ];
+        let title = self.column.title();
+        engines
+            .map(|(e, m)| Record::new(Section::Batched, scene, &self.tree, &title, e).speed(m))
+            .into()
     }
 
     fn cells(&self) -> Vec<String> {
@@ -93,14 +109,16 @@ fn batched_row(subject: &Subject, column: Column, per_ray: f64, rays: &[Ray]) ->
     } else {
         BatchOrdering::Unordered
     };
-    BatchedRow {
+    let row = BatchedRow {
         tree: subject.label.clone(),
         column,
         per_ray,
         by_octant,
         unordered,
         parallel: speed(tree, batched(best).with_threads(THREADS), rays),
-    }
+    };
+    crate::records::push(row.records(subject.scene));
+    row
 }
 
 /// The per-ray vs batched section: caption and table.
@@ -144,8 +162,13 @@ pub fn batch_size_sweep(subject: &Subject, rays: &[Ray], per_ray: f64, sizes: &[
     for title in ["per-ray", "batched", "batched / per-ray"] {
         table.column(title, Align::Right);
     }
+    let record = |engine| Record::new(Section::Sweep, subject.scene, &subject.label, "closest incoherent", engine);
+    crate::records::push([record("per-ray").speed(per_ray)]);
     for size in sweep_sizes(sizes, rays.len()) {
         let batched = time_in_batches(subject.tree, query, rays, size).mrays_per_s();
+        let mut r = record("batched").speed(batched);
+        r.batch_size = Some(size);
+        crate::records::push([r]);
         let all = if size == rays.len() { " (all)" } else { "" };
         let ratio = ratio(batched / per_ray);
         let size = format!("{}{all}", thousands(size));
