@@ -24,7 +24,8 @@ fn trees(q: &QuantizedMesh) -> Vec<Structure> {
     let mut out = Vec::new();
     for leaf in [1, 4] {
         let options = BuildOptions::default().with_leaf_size(leaf);
-        let full = QuantizedVertexTree::<raybatch::bvh::nodes::FullNodes>::build(q.clone(), &options);
+        let full =
+            QuantizedVertexTree::<raybatch::bvh::nodes::FullNodes>::build(q.clone(), &options);
         let quantized = QuantizedVertexTree::<QuantizedNodes>::build(q.clone(), &options);
         out.push(Structure {
             name: format!("qv{}/full/leaf{leaf}", q.grid().bits),
@@ -83,11 +84,23 @@ fn bunny_at_16_bits_half_the_vertex_bytes_and_exact_for_its_mesh() {
     let mesh = bunny();
     let q = QuantizedMesh::new(&mesh, 16).unwrap();
     assert!(2 * q.vertex_bytes() <= mesh.vertices().len() * size_of::<glam::Vec3>());
-    let tree = QuantizedVertexTree::<raybatch::bvh::nodes::FullNodes>::build(q.clone(), &BuildOptions::default()).unwrap();
-    let exact = AabbTree::<raybatch::bvh::nodes::FullNodes>::build(q.dequantize(), &BuildOptions::default()).unwrap();
+    let tree = QuantizedVertexTree::<raybatch::bvh::nodes::FullNodes>::build(
+        q.clone(),
+        &BuildOptions::default(),
+    )
+    .unwrap();
+    let exact = AabbTree::<raybatch::bvh::nodes::FullNodes>::build(
+        q.dequantize(),
+        &BuildOptions::default(),
+    )
+    .unwrap();
     let rays = incoherent(&mesh, 2_000, &mut seeded(16));
     for ray in &rays {
-        assert_eq!(opt_bits(tree.cast_ray(ray)), opt_bits(exact.cast_ray(ray)), "{ray:?}");
+        assert_eq!(
+            opt_bits(tree.cast_ray(ray)),
+            opt_bits(exact.cast_ray(ray)),
+            "{ray:?}"
+        );
     }
 }
 
@@ -95,7 +108,9 @@ fn bunny_at_16_bits_half_the_vertex_bytes_and_exact_for_its_mesh() {
 fn counting_visits_changes_no_answer_and_quantized_boxes_visit_at_least_as_many() {
     let mesh = Arc::new(bunny());
     let options = BuildOptions::default();
-    let full = Counted::new(AabbTree::<raybatch::bvh::nodes::FullNodes>::build(mesh.clone(), &options).unwrap());
+    let full = Counted::new(
+        AabbTree::<raybatch::bvh::nodes::FullNodes>::build(mesh.clone(), &options).unwrap(),
+    );
     let quantized = Counted::new(QuantizedAabbTree::build(mesh.clone(), &options).unwrap());
     let rays = incoherent(&mesh, 2_000, &mut seeded(17));
     for ray in &rays {

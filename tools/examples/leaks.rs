@@ -40,10 +40,17 @@ fn main() {
             let rays = aimed_rays(&closed, CHUNK.min(total - start), 1000 + c as u64);
             if c == 0 {
                 let judge = Reference::new(&mesh);
-                judge_misses = judge.closest_all(&rays).iter().filter(|h| h.is_none()).count();
+                judge_misses = judge
+                    .closest_all(&rays)
+                    .iter()
+                    .filter(|h| h.is_none())
+                    .count();
             }
             for (m, (_, tree, kernel)) in modes.iter().enumerate() {
-                leaks[m][0] += rays.iter().filter(|r| tree.cast_ray_with(r, *kernel).is_none()).count();
+                leaks[m][0] += rays
+                    .iter()
+                    .filter(|r| tree.cast_ray_with(r, *kernel).is_none())
+                    .count();
                 let hits = &mut hits[..rays.len()];
                 let options = BatchOptions::default().with_kernel(*kernel);
                 tree.cast_rays_with(&rays, hits, &options).unwrap();
@@ -51,8 +58,14 @@ fn main() {
             }
         }
         for (m, (name, _, _)) in modes.iter().enumerate() {
-            println!("| {} | {name} | {total} | {} | {} |", closed.name, leaks[m][0], leaks[m][1]);
+            println!(
+                "| {} | {name} | {total} | {} | {} |",
+                closed.name, leaks[m][0], leaks[m][1]
+            );
         }
-        eprintln!("{}: the f64 judge missed {judge_misses} of the first chunk's rays", closed.name);
+        eprintln!(
+            "{}: the f64 judge missed {judge_misses} of the first chunk's rays",
+            closed.name
+        );
     }
 }

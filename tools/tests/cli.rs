@@ -510,10 +510,25 @@ fn quick_bench_prints_the_tables_and_writes_the_report() {
     let report = target.0.join("raybatch-report");
     let csv = std::fs::read_to_string(report.join("report.csv")).expect("report.csv written");
     assert!(csv.starts_with("machine,commit,date,section,"), "{csv}");
-    assert!(csv.lines().any(|l| l.contains(",modes,bunny,aabb 16-bit vertices,")), "{csv}");
+    assert!(
+        csv.lines()
+            .any(|l| l.contains(",modes,bunny,aabb 16-bit vertices,")),
+        "{csv}"
+    );
     let page = std::fs::read_to_string(report.join("index.html")).expect("index.html written");
-    for chart in ["speed_vs_error", "speed_vs_memory", "per_ray_vs_batched", "batch_size_sweep"] {
-        assert!(page.contains(&format!("{chart}.svg")), "no {chart} in the page");
-        assert!(report.join(format!("{chart}.svg")).is_file(), "no {chart}.svg");
+    for chart in [
+        "speed_vs_error",
+        "speed_vs_memory",
+        "per_ray_vs_batched",
+        "batch_size_sweep",
+    ] {
+        assert!(
+            page.contains(&format!("{chart}.svg")),
+            "no {chart} in the page"
+        );
+        assert!(
+            report.join(format!("{chart}.svg")).is_file(),
+            "no {chart}.svg"
+        );
     }
 }

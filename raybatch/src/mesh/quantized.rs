@@ -78,7 +78,11 @@ impl VertexGrid {
     fn quantize(&self, p: Vec3) -> [u32; 3] {
         let max = (1u32 << self.bits) - 1;
         std::array::from_fn(|a| {
-            let (x, o, s) = (f64::from(p[a]), f64::from(self.origin[a]), f64::from(self.step[a]));
+            let (x, o, s) = (
+                f64::from(p[a]),
+                f64::from(self.origin[a]),
+                f64::from(self.step[a]),
+            );
             let q = ((x - o) / s).round().clamp(0.0, f64::from(max)) as u32;
             // The f64 quotient may round a coordinate a hair from a half step to the wrong
             // side: keep whichever neighbour decodes nearer (exactly compared in f64).
@@ -263,7 +267,9 @@ mod tests {
 
     fn mesh(vertices: Vec<Vec3>) -> Mesh {
         let n = vertices.len() as u32;
-        let triangles = (0..n.saturating_sub(2)).map(|i| [i, i + 1, i + 2]).collect();
+        let triangles = (0..n.saturating_sub(2))
+            .map(|i| [i, i + 1, i + 2])
+            .collect();
         Mesh::new(vertices, triangles).unwrap()
     }
 
@@ -272,7 +278,10 @@ mod tests {
         let half = q.grid().max_error().as_dvec3();
         for (i, v) in m.vertices().iter().enumerate() {
             let err = (q.vertex(i as u32).as_dvec3() - v.as_dvec3()).abs();
-            assert!(err.cmple(half).all(), "vertex {i} {v}: error {err} > {half}");
+            assert!(
+                err.cmple(half).all(),
+                "vertex {i} {v}: error {err} > {half}"
+            );
         }
     }
 
@@ -307,7 +316,11 @@ mod tests {
     #[test]
     fn decode_is_exact_and_grid_points_survive() {
         // Vertices on the grid (here integers with 16 bits) come back unchanged.
-        let m = mesh((0..50).map(|i| Vec3::new(i as f32, -(i as f32), 7.0)).collect());
+        let m = mesh(
+            (0..50)
+                .map(|i| Vec3::new(i as f32, -(i as f32), 7.0))
+                .collect(),
+        );
         let q = QuantizedMesh::new(&m, 16).unwrap();
         assert_eq!(q.dequantize(), m);
         assert_eq!(q.triangles(), m.triangles());

@@ -132,9 +132,13 @@ pub fn run(args: &BenchArgs) -> Result<(), CliError> {
         crate::records::push(records);
     }
     let dir = crate::records::report_dir();
-    let page = crate::records::write_report(&dir)
-        .map_err(|e| CliError::input(format!("cannot write the report to {}: {e}", dir.display())))?;
-    progress(&format!("report written: {} (and report.csv beside it)", page.display()));
+    let page = crate::records::write_report(&dir).map_err(|e| {
+        CliError::input(format!("cannot write the report to {}: {e}", dir.display()))
+    })?;
+    progress(&format!(
+        "report written: {} (and report.csv beside it)",
+        page.display()
+    ));
     Ok(())
 }
 

@@ -162,7 +162,15 @@ pub fn batch_size_sweep(subject: &Subject, rays: &[Ray], per_ray: f64, sizes: &[
     for title in ["per-ray", "batched", "batched / per-ray"] {
         table.column(title, Align::Right);
     }
-    let record = |engine| Record::new(Section::Sweep, subject.scene, &subject.label, "closest incoherent", engine);
+    let record = |engine| {
+        Record::new(
+            Section::Sweep,
+            subject.scene,
+            &subject.label,
+            "closest incoherent",
+            engine,
+        )
+    };
     crate::records::push([record("per-ray").speed(per_ray)]);
     for size in sweep_sizes(sizes, rays.len()) {
         let batched = time_in_batches(subject.tree, query, rays, size).mrays_per_s();

@@ -65,9 +65,17 @@ const WT: Kernel = Kernel::Watertight;
 /// Every mode, the default first.
 const MODES: [Mode; 9] = [
     mode("bvh4 watertight", Build::Tree(AccelKind::Bvh4), WT),
-    mode("bvh4 moller-trumbore", Build::Tree(AccelKind::Bvh4), Kernel::MollerTrumbore),
+    mode(
+        "bvh4 moller-trumbore",
+        Build::Tree(AccelKind::Bvh4),
+        Kernel::MollerTrumbore,
+    ),
     mode("aabb full nodes", Build::Tree(AccelKind::Aabb), WT),
-    mode("aabb quantized nodes", Build::Tree(AccelKind::Quantized), WT),
+    mode(
+        "aabb quantized nodes",
+        Build::Tree(AccelKind::Quantized),
+        WT,
+    ),
     mode("zbt", Build::Tree(AccelKind::Zbt), WT),
     mode("hybrid", Build::Tree(AccelKind::Hybrid), WT),
     mode("aabb 16-bit vertices", Build::QuantizedVertices(16), WT),
@@ -85,7 +93,9 @@ fn build(mode: &Mode, mesh: &Arc<Mesh>) -> Built {
     let options = BuildOptions::default();
     match mode.build {
         Build::Tree(kind) => Built {
-            tree: kind.build(mesh.clone(), &options).expect("the scenes build"),
+            tree: kind
+                .build(mesh.clone(), &options)
+                .expect("the scenes build"),
             mesh_bytes: mesh.heap_bytes(),
         },
         Build::QuantizedVertices(bits) => {
@@ -104,12 +114,14 @@ fn build(mode: &Mode, mesh: &Arc<Mesh>) -> Built {
 fn nodes_per_ray(mode: &Mode, mesh: &Arc<Mesh>, rays: &[Ray]) -> Option<f64> {
     let options = BuildOptions::default();
     let visits = match mode.build {
-        Build::Tree(AccelKind::Aabb) => count(&Counted::new(
-            AabbTree::<FullNodes>::build(mesh.clone(), &options).ok()?,
-        ), rays),
-        Build::Tree(AccelKind::Quantized) => count(&Counted::new(
-            QuantizedAabbTree::build(mesh.clone(), &options).ok()?,
-        ), rays),
+        Build::Tree(AccelKind::Aabb) => count(
+            &Counted::new(AabbTree::<FullNodes>::build(mesh.clone(), &options).ok()?),
+            rays,
+        ),
+        Build::Tree(AccelKind::Quantized) => count(
+            &Counted::new(QuantizedAabbTree::build(mesh.clone(), &options).ok()?),
+            rays,
+        ),
         _ => return None,
     };
     Some(visits as f64 / rays.len().max(1) as f64)
@@ -135,12 +147,18 @@ pub fn section(scene: &str, mesh: &Arc<Mesh>, rays: &RaySets) -> (String, Vec<Re
         .collect();
     let triangles = mesh.triangle_count().max(1) as f64;
     for m in &MODES {
-        progress(&format!("{scene}: mode {}: building and measuring ...", m.name));
+        progress(&format!(
+            "{scene}: mode {}: building and measuring ...",
+            m.name
+        ));
         let built = build(m, mesh);
         for (set, sample, truth) in &judged {
             let all = rays.get(*set);
             let label = format!("closest {set}");
-            let answers: Vec<_> = sample.iter().map(|r| built.tree.cast_ray_with(r, m.kernel)).collect();
+            let answers: Vec<_> = sample
+                .iter()
+                .map(|r| built.tree.cast_ray_with(r, m.kernel))
+                .collect();
             let per_ray = Query::new(QueryKind::Closest, m.kernel, Engine::PerRay).with_threads(1);
             let batched = Query::new(
                 QueryKind::Closest,
@@ -164,7 +182,9 @@ pub fn section(scene: &str, mesh: &Arc<Mesh>, rays: &RaySets) -> (String, Vec<Re
     (modes_table(scene, &records, judged_count(&judged)), records)
 }
 
-fn judged_count(judged: &[(RaySet, &[Ray], Vec<Option<raybatch_tools::judge::JudgeHit>>)]) -> usize {
+fn judged_count(
+    judged: &[(RaySet, &[Ray], Vec<Option<raybatch_tools::judge::JudgeHit>>)],
+) -> usize {
     judged.first().map_or(0, |j| j.1.len())
 }
 
@@ -175,8 +195,16 @@ fn modes_table(scene: &str, records: &[Record], judged: usize) -> String {
         table.column(title, align);
     }
     for title in [
-        "per-ray", "batched", "bytes/tri", "mesh bytes/tri", "nodes/ray", "hit/miss",
-        "wrong tri", "ties", "max t err", "mean t err",
+        "per-ray",
+        "batched",
+        "bytes/tri",
+        "mesh bytes/tri",
+        "nodes/ray",
+        "hit/miss",
+        "wrong tri",
+        "ties",
+        "max t err",
+        "mean t err",
     ] {
         table.column(title, Align::Right);
     }
@@ -243,7 +271,13 @@ pub fn leaks(count: usize) -> (String, Vec<Record>) {
                     (score(&judge, &rays, &truth, runner.closest()), misses)
                 });
             for (engine, (s, _)) in [("per-ray", per_ray), ("batched", batched)] {
-                let mut r = Record::new(Section::Leaks, closed.name, m.name, "aimed from inside", engine);
+                let mut r = Record::new(
+                    Section::Leaks,
+                    closed.name,
+                    m.name,
+                    "aimed from inside",
+                    engine,
+                );
                 r.score = Some(s);
                 records.push(r);
             }

@@ -20,7 +20,8 @@ pub fn push(records: impl IntoIterator<Item = Record>) {
 /// The report folder: `target/raybatch-report` under the current directory, or under
 /// `CARGO_TARGET_DIR` if set.
 pub fn report_dir() -> PathBuf {
-    let target = std::env::var_os("CARGO_TARGET_DIR").map_or_else(|| "target".into(), PathBuf::from);
+    let target =
+        std::env::var_os("CARGO_TARGET_DIR").map_or_else(|| "target".into(), PathBuf::from);
     target.join("raybatch-report")
 }
 

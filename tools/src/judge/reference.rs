@@ -109,7 +109,9 @@ impl Reference {
             nodes: Vec::new(),
         };
         if !reference.order.is_empty() {
-            reference.nodes.push(reference.node(0, reference.order.len()));
+            reference
+                .nodes
+                .push(reference.node(0, reference.order.len()));
             reference.split(0);
         }
         reference
@@ -134,7 +136,10 @@ impl Reference {
 
     /// Splits node `index` at the median centroid of its longest axis, recursively.
     fn split(&mut self, index: usize) {
-        let (first, count) = (self.nodes[index].first as usize, self.nodes[index].count as usize);
+        let (first, count) = (
+            self.nodes[index].first as usize,
+            self.nodes[index].count as usize,
+        );
         if count <= LEAF {
             return;
         }
@@ -148,7 +153,10 @@ impl Reference {
         self.order[first..first + count]
             .select_nth_unstable_by(half, |x, y| key(x).total_cmp(&key(y)));
         let children = self.nodes.len();
-        let (left, right) = (self.node(first, half), self.node(first + half, count - half));
+        let (left, right) = (
+            self.node(first, half),
+            self.node(first + half, count - half),
+        );
         self.nodes.extend([left, right]);
         self.nodes[index].first = children as u32;
         self.nodes[index].count = 0;
@@ -270,7 +278,10 @@ mod tests {
         };
         let mut hits = 0;
         for _ in 0..2_000 {
-            let ray = Ray::new(rng.point_in(Vec3::splat(-6.0), Vec3::splat(6.0)), rng.unit_vector());
+            let ray = Ray::new(
+                rng.point_in(Vec3::splat(-6.0), Vec3::splat(6.0)),
+                rng.unit_vector(),
+            );
             let got = judge.closest(&ray).map(|h| (h.t, h.triangle));
             assert_eq!(got, scan(&ray), "{ray:?}");
             hits += usize::from(got.is_some());

@@ -48,7 +48,11 @@ impl Score {
 }
 
 fn rate(count: usize, of: usize) -> f64 {
-    if of == 0 { 0.0 } else { count as f64 / of as f64 }
+    if of == 0 {
+        0.0
+    } else {
+        count as f64 / of as f64
+    }
 }
 
 /// The distance scale of a ray's errors: `t` cannot be located better than the origin's own
@@ -134,15 +138,22 @@ mod tests {
         let mesh = Mesh::new(v, vec![[0, 1, 2], [1, 0, 3], [4, 5, 6]]).unwrap();
         let judge = Reference::new(&mesh);
         let down = |x: f32| Ray::new(Vec3::new(x, 0.0, 0.0), Vec3::Z);
-        let rays = [down(-0.5), down(0.0), down(-0.5), down(1.5), down(9.0), down(0.5)];
+        let rays = [
+            down(-0.5),
+            down(0.0),
+            down(-0.5),
+            down(1.5),
+            down(9.0),
+            down(0.5),
+        ];
         let judged = judge.closest_all(&rays);
         let answers = [
-            hit(0, 2.0),        // right
-            hit(1, 2.0),        // on the shared edge: a tie
-            hit(2, 5.0),        // wrong triangle, t error 3 / 2
-            None,               // missed
-            hit(2, 5.0),        // invented
-            hit(1, 2.0000002),  // right triangle, t error 1e-7
+            hit(0, 2.0),       // right
+            hit(1, 2.0),       // on the shared edge: a tie
+            hit(2, 5.0),       // wrong triangle, t error 3 / 2
+            None,              // missed
+            hit(2, 5.0),       // invented
+            hit(1, 2.0000002), // right triangle, t error 1e-7
         ];
         let s = score(&judge, &rays, &judged, &answers);
         assert_eq!((s.rays, s.missed, s.extra), (6, 1, 1));

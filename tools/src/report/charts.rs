@@ -103,7 +103,9 @@ where
 
 /// `[10^floor(log10 lo), 10^ceil(log10 hi)]` around positive values.
 fn decades(values: impl Iterator<Item = f64>) -> (f64, f64) {
-    let (lo, hi) = values.fold((f64::INFINITY, 0.0f64), |(lo, hi), v| (lo.min(v), hi.max(v)));
+    let (lo, hi) = values.fold((f64::INFINITY, 0.0f64), |(lo, hi), v| {
+        (lo.min(v), hi.max(v))
+    });
     if !lo.is_finite() {
         return (1e-9, 1.0);
     }
@@ -121,7 +123,11 @@ fn speed_vs_error(dir: &Path, records: &[Record]) -> io::Result<Option<Chart>> {
         .iter()
         .filter_map(|r| {
             let s = r.score?;
-            Some((r.mode.clone(), s.max_t_error.max(ERROR_FLOOR), r.mrays_per_s?))
+            Some((
+                r.mode.clone(),
+                s.max_t_error.max(ERROR_FLOOR),
+                r.mrays_per_s?,
+            ))
         })
         .collect();
     if points.is_empty() {
@@ -198,7 +204,12 @@ fn per_ray_vs_batched(dir: &Path, records: &[Record]) -> io::Result<Option<Chart
     }
     let bars: Vec<(f64, f64)> = sets
         .iter()
-        .map(|s| (speed(s, "per-ray").unwrap_or(0.0), speed(s, "batched").unwrap_or(0.0)))
+        .map(|s| {
+            (
+                speed(s, "per-ray").unwrap_or(0.0),
+                speed(s, "batched").unwrap_or(0.0),
+            )
+        })
         .collect();
     let top = bars.iter().map(|b| b.0.max(b.1)).fold(0.0, f64::max) * 1.15;
     let file = "per_ray_vs_batched.svg";
@@ -207,7 +218,10 @@ fn per_ray_vs_batched(dir: &Path, records: &[Record]) -> io::Result<Option<Chart
     root.fill(&WHITE).map_err(io_error)?;
     let n = sets.len() as f64;
     let mut chart = ChartBuilder::on(&root)
-        .caption(format!("Per ray vs batched ({scene}, {DEFAULT_MODE})"), ("sans-serif", 22))
+        .caption(
+            format!("Per ray vs batched ({scene}, {DEFAULT_MODE})"),
+            ("sans-serif", 22),
+        )
         .margin(16)
         .x_label_area_size(50)
         .y_label_area_size(70)
@@ -290,7 +304,10 @@ fn batch_size_sweep(dir: &Path, records: &[Record]) -> io::Result<Option<Chart>>
     root.fill(&WHITE).map_err(io_error)?;
     let mut chart = ChartBuilder::on(&root)
         .caption(
-            format!("Batch size ({}, {}, {})", first.scene, first.mode, first.rays),
+            format!(
+                "Batch size ({}, {}, {})",
+                first.scene, first.mode, first.rays
+            ),
             ("sans-serif", 22),
         )
         .margin(16)

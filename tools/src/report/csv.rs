@@ -34,7 +34,11 @@ pub const COLUMNS: [&str; 21] = [
 pub fn render(records: &[Record], meta: &Meta) -> String {
     let mut out = COLUMNS.join(",") + "\n";
     for r in records {
-        out += &cells(r, meta).iter().map(|c| quote(c)).collect::<Vec<_>>().join(",");
+        out += &cells(r, meta)
+            .iter()
+            .map(|c| quote(c))
+            .collect::<Vec<_>>()
+            .join(",");
         out += "\n";
     }
     out

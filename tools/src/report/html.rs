@@ -50,8 +50,20 @@ fn table(title: &str, records: &[Record], section: Section) -> String {
         return String::new();
     }
     let head = [
-        "scene", "mode", "rays", "engine", "Mrays/s", "bytes/tri", "mesh bytes/tri",
-        "nodes/ray", "judged", "hit/miss", "missed", "wrong tri", "ties", "max t err",
+        "scene",
+        "mode",
+        "rays",
+        "engine",
+        "Mrays/s",
+        "bytes/tri",
+        "mesh bytes/tri",
+        "nodes/ray",
+        "judged",
+        "hit/miss",
+        "missed",
+        "wrong tri",
+        "ties",
+        "max t err",
         "mean t err",
     ];
     let mut out = format!("<h2>{}</h2>\n<table><tr>", escape(title));
@@ -59,7 +71,8 @@ fn table(title: &str, records: &[Record], section: Section) -> String {
         out += &format!("<th>{h}</th>");
     }
     out += "</tr>\n";
-    let num = |x: Option<f64>, digits: usize| x.map_or("-".to_string(), |x| format!("{x:.digits$}"));
+    let num =
+        |x: Option<f64>, digits: usize| x.map_or("-".to_string(), |x| format!("{x:.digits$}"));
     let sci = |x: Option<f64>| x.map_or("-".to_string(), |x| format!("{x:.1e}"));
     for r in rows {
         let s = r.score;

@@ -154,20 +154,39 @@ mod tests {
             mean_t_error: 1e-8,
         };
         let mut out = Vec::new();
-        for (mode, speed, bytes) in [("bvh4 watertight", 4.0, 24.0), ("aabb 16-bit vertices", 3.0, 9.0)] {
+        for (mode, speed, bytes) in [
+            ("bvh4 watertight", 4.0, 24.0),
+            ("aabb 16-bit vertices", 3.0, 9.0),
+        ] {
             for engine in ["per-ray", "batched"] {
-                let mut r = Record::new(Section::Modes, "bunny", mode, "closest incoherent", engine)
-                    .speed(speed);
+                let mut r =
+                    Record::new(Section::Modes, "bunny", mode, "closest incoherent", engine)
+                        .speed(speed);
                 r.bytes_per_triangle = Some(bytes);
                 r.mesh_bytes_per_triangle = Some(18.0);
                 r.score = Some(score);
                 out.push(r);
             }
         }
-        out.push(Record::new(Section::Sweep, "bunny", "bvh4/pns", "closest incoherent", "per-ray").speed(2.0));
+        out.push(
+            Record::new(
+                Section::Sweep,
+                "bunny",
+                "bvh4/pns",
+                "closest incoherent",
+                "per-ray",
+            )
+            .speed(2.0),
+        );
         for size in [64, 4096] {
-            let mut r = Record::new(Section::Sweep, "bunny", "bvh4/pns", "closest incoherent", "batched")
-                .speed(size as f64 / 1000.0);
+            let mut r = Record::new(
+                Section::Sweep,
+                "bunny",
+                "bvh4/pns",
+                "closest incoherent",
+                "batched",
+            )
+            .speed(size as f64 / 1000.0);
             r.batch_size = Some(size);
             out.push(r);
         }
@@ -203,7 +222,12 @@ mod tests {
             assert_eq!(wrong, r.score.map(|s| s.wrong_triangle_rate()));
         }
         let html = std::fs::read_to_string(&page).unwrap();
-        for chart in ["speed_vs_error", "speed_vs_memory", "per_ray_vs_batched", "batch_size_sweep"] {
+        for chart in [
+            "speed_vs_error",
+            "speed_vs_memory",
+            "per_ray_vs_batched",
+            "batch_size_sweep",
+        ] {
             let svg = std::fs::read_to_string(dir.join(format!("{chart}.svg"))).unwrap();
             assert!(svg.starts_with("<svg") && svg.contains("<circle") | svg.contains("<rect"));
             assert!(html.contains(&format!("src=\"{chart}.svg\"")));
@@ -214,7 +238,8 @@ mod tests {
 
     #[test]
     fn no_records_no_charts() {
-        let dir = std::env::temp_dir().join(format!("raybatch-report-empty-{}", std::process::id()));
+        let dir =
+            std::env::temp_dir().join(format!("raybatch-report-empty-{}", std::process::id()));
         let page = write(&dir, &[], &Meta::current()).unwrap();
         assert!(std::fs::read_to_string(page).unwrap().contains("<h1>"));
         assert!(!dir.join("speed_vs_error.svg").exists());

@@ -104,10 +104,26 @@ fn icosphere(subdivisions: u32) -> (Vec<Vec3>, Vec<[u32; 3]>) {
     .map(|&(x, y, z)| Vec3::new(x, y, z).normalize())
     .collect();
     let mut triangles: Vec<[u32; 3]> = vec![
-        [0, 11, 5], [0, 5, 1], [0, 1, 7], [0, 7, 10], [0, 10, 11],
-        [1, 5, 9], [5, 11, 4], [11, 10, 2], [10, 7, 6], [7, 1, 8],
-        [3, 9, 4], [3, 4, 2], [3, 2, 6], [3, 6, 8], [3, 8, 9],
-        [4, 9, 5], [2, 4, 11], [6, 2, 10], [8, 6, 7], [9, 8, 1],
+        [0, 11, 5],
+        [0, 5, 1],
+        [0, 1, 7],
+        [0, 7, 10],
+        [0, 10, 11],
+        [1, 5, 9],
+        [5, 11, 4],
+        [11, 10, 2],
+        [10, 7, 6],
+        [7, 1, 8],
+        [3, 9, 4],
+        [3, 4, 2],
+        [3, 2, 6],
+        [3, 6, 8],
+        [3, 8, 9],
+        [4, 9, 5],
+        [2, 4, 11],
+        [6, 2, 10],
+        [8, 6, 7],
+        [9, 8, 1],
     ];
     for _ in 0..subdivisions {
         let mut midpoints: HashMap<(u32, u32), u32> = HashMap::new();
@@ -145,10 +161,18 @@ mod tests {
                     *uses.entry((a.min(b), a.max(b))).or_default() += 1;
                 }
             }
-            assert!(uses.values().all(|&n| n == 2), "{} is not closed", closed.name);
+            assert!(
+                uses.values().all(|&n| n == 2),
+                "{} is not closed",
+                closed.name
+            );
             assert_eq!(closed.mesh.triangle_count(), 5_120);
             for ray in aimed_rays(&closed, 100, 1) {
-                assert!((ray.origin - closed.center).length() < 0.91, "{}", closed.name);
+                assert!(
+                    (ray.origin - closed.center).length() < 0.91,
+                    "{}",
+                    closed.name
+                );
             }
         }
     }
