@@ -219,7 +219,7 @@ fn modes_table(scene: &str, records: &[Record], judged: usize) -> String {
             opt(b.mrays_per_s, 2),
             opt(p.bytes_per_triangle, 1),
             opt(p.mesh_bytes_per_triangle, 1),
-            opt(p.nodes_per_ray, 1),
+            opt(p.nodes_per_ray, 2),
             rate(s.missed + s.extra, s.rays),
             rate(s.wrong_triangle, s.rays),
             s.ties.to_string(),

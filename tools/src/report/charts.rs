@@ -52,12 +52,17 @@ fn mode_points(records: &[Record]) -> Vec<&Record> {
         .collect()
 }
 
-/// A scatter of one labelled point per mode (legend on the right of the plot).
+/// Width of the legend column right of a scatter.
+const LEGEND_WIDTH: u32 = 230;
+
+/// A scatter of one point per mode, named in a legend column right of the plot (inside the
+/// plot, labels would cover points or be clipped at its edge).
 fn scatter<X>(
     path: &Path,
     title: &str,
     x_desc: &str,
     x_range: X,
+    x_format: &dyn Fn(&f64) -> String,
     points: &[(String, f64, f64)],
 ) -> io::Result<()>
 where
@@ -66,11 +71,11 @@ where
 {
     let root = SVGBackend::new(path, SIZE).into_drawing_area();
     root.fill(&WHITE).map_err(io_error)?;
+    let (plot, legend) = root.split_horizontally(SIZE.0 - LEGEND_WIDTH);
     let top = points.iter().map(|p| p.2).fold(0.0, f64::max) * 1.15;
-    let mut chart = ChartBuilder::on(&root)
+    let mut chart = ChartBuilder::on(&plot)
         .caption(title, ("sans-serif", 22))
         .margin(16)
-        .margin_right(260)
         .x_label_area_size(50)
         .y_label_area_size(70)
         .build_cartesian_2d(x_range, 0.0..top.max(1e-3))
@@ -78,6 +83,8 @@ where
     chart
         .configure_mesh()
         .x_desc(x_desc)
+        .x_labels(8)
+        .x_label_formatter(x_format)
         .y_desc("Mrays/s (one thread, per ray)")
         .label_style(("sans-serif", 15))
         .draw()
@@ -86,18 +93,15 @@ where
         let color = Palette99::pick(i).to_rgba();
         chart
             .draw_series([Circle::new((*x, *y), 7, color.filled())])
-            .map_err(io_error)?
-            .label(name)
-            .legend(move |(x, y)| Circle::new((x + 10, y), 6, color.filled()));
+            .map_err(io_error)?;
+        let row = 70 + 26 * i as i32;
+        legend
+            .draw(&Circle::new((14, row), 7, color.filled()))
+            .map_err(io_error)?;
+        legend
+            .draw(&Text::new(name.clone(), (28, row - 8), ("sans-serif", 15)))
+            .map_err(io_error)?;
     }
-    chart
-        .configure_series_labels()
-        .position(SeriesLabelPosition::Coordinate(650, 40))
-        .label_font(("sans-serif", 15))
-        .background_style(WHITE)
-        .border_style(BLACK)
-        .draw()
-        .map_err(io_error)?;
     root.present().map_err(io_error)
 }
 
@@ -141,6 +145,7 @@ fn speed_vs_error(dir: &Path, records: &[Record]) -> io::Result<Option<Chart>> {
         &format!("Speed against error ({scene}, {CHART_RAYS})"),
         "largest t error vs the f64 judge, relative to max(|t|, |origin|) (log)",
         (lo..hi).log_scale(),
+        &|x: &f64| format!("{x:.0e}"),
         &points,
     )?;
     Ok(Some(Chart {
@@ -171,6 +176,7 @@ fn speed_vs_memory(dir: &Path, records: &[Record]) -> io::Result<Option<Chart>> 
         &format!("Speed against memory ({scene}, {CHART_RAYS})"),
         "bytes per triangle: structure + mesh (positions and indices)",
         0.0..right,
+        &|x: &f64| format!("{x:.0}"),
         &points,
     )?;
     Ok(Some(Chart {
