@@ -83,7 +83,7 @@ proptest! {
 fn bunny_at_16_bits_half_the_vertex_bytes_and_exact_for_its_mesh() {
     let mesh = bunny();
     let q = QuantizedMesh::new(&mesh, 16).unwrap();
-    assert!(2 * q.vertex_bytes() <= mesh.vertices().len() * size_of::<glam::Vec3>());
+    assert!(2 * q.vertex_bytes() <= size_of_val(mesh.vertices()));
     let tree = QuantizedVertexTree::<raybatch::bvh::nodes::FullNodes>::build(
         q.clone(),
         &BuildOptions::default(),

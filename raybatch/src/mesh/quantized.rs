@@ -128,8 +128,8 @@ enum Positions {
 impl Positions {
     fn new(bits: u32, coords: impl Iterator<Item = [u32; 3]>) -> Self {
         match bits {
-            ..=8 => Self::Bytes(coords.map(|q| q.map(|c| c as u8)).collect()),
-            ..=10 => Self::Packed10(coords.map(|[x, y, z]| x | (y << 10) | (z << 20)).collect()),
+            0..=8 => Self::Bytes(coords.map(|q| q.map(|c| c as u8)).collect()),
+            9..=10 => Self::Packed10(coords.map(|[x, y, z]| x | (y << 10) | (z << 20)).collect()),
             _ => Self::Halves(coords.map(|q| q.map(|c| c as u16)).collect()),
         }
     }
@@ -307,7 +307,7 @@ mod tests {
     #[test]
     fn sixteen_bits_take_half_the_vertex_bytes() {
         let m = mesh((0..100).map(|i| Vec3::splat(i as f32)).collect());
-        let f32_bytes = m.vertices().len() * size_of::<Vec3>();
+        let f32_bytes = size_of_val(m.vertices());
         for (bits, bytes) in [(16, f32_bytes / 2), (10, f32_bytes / 3), (8, f32_bytes / 4)] {
             assert_eq!(QuantizedMesh::new(&m, bits).unwrap().vertex_bytes(), bytes);
         }

@@ -179,13 +179,8 @@ pub fn section(scene: &str, mesh: &Arc<Mesh>, rays: &RaySets) -> (String, Vec<Re
             }
         }
     }
-    (modes_table(scene, &records, judged_count(&judged)), records)
-}
-
-fn judged_count(
-    judged: &[(RaySet, &[Ray], Vec<Option<raybatch_tools::judge::JudgeHit>>)],
-) -> usize {
-    judged.first().map_or(0, |j| j.1.len())
+    let judged_rays = judged.first().map_or(0, |(_, sample, _)| sample.len());
+    (modes_table(scene, &records, judged_rays), records)
 }
 
 /// The modes table: one line per mode and ray set.
