@@ -3,7 +3,7 @@
 //! Three closed meshes (every edge shared by exactly two triangles): an icosphere, the same
 //! with every vertex's radius jittered (uneven, non-convex facets), and an icosphere of radius
 //! 1 placed 10,000 units from the origin, where `f32` spacing is about 1e-3 and rounding is
-//! worst. The rays start inside (within 0.9 of the centre) and are aimed exactly at vertices
+//! worst. The rays start inside (within 0.9 of the distance from the centre to the nearest face plane) and are aimed exactly at vertices
 //! and edge midpoints, as `raybatch/tests/watertight.rs` does, so each must hit; a miss is a
 //! leak.
 
@@ -22,6 +22,10 @@ pub struct ClosedMesh {
     pub mesh: Mesh,
     /// The centre of the sphere.
     pub center: Vec3,
+    /// A lower bound of the distance from the centre to the surface (the nearest face plane;
+    /// about 0.99 on the icospheres, 0.18 on the jittered one, whose facets tilt):
+    /// every point closer to the centre is inside.
+    pub inner_radius: f32,
 }
 
 /// Subdivisions of the icospheres: 5,120 triangles.
@@ -39,33 +43,43 @@ pub fn closed_meshes() -> Vec<ClosedMesh> {
         .collect();
     let center = Vec3::splat(FAR);
     let far = vertices.iter().map(|&v| v + center).collect();
-    let mesh = |v| Mesh::new(v, triangles.clone()).expect("an icosphere is a valid mesh");
-    vec![
+    let closed = |name, v, center| {
+        let mesh = Mesh::new(v, triangles.clone()).expect("an icosphere is a valid mesh");
+        let inner_radius = inner_radius(&mesh, center);
         ClosedMesh {
-            name: "icosphere",
-            mesh: mesh(vertices.clone()),
-            center: Vec3::ZERO,
-        },
-        ClosedMesh {
-            name: "jittered",
-            mesh: mesh(jittered),
-            center: Vec3::ZERO,
-        },
-        ClosedMesh {
-            name: "far",
-            mesh: mesh(far),
+            name,
+            mesh,
             center,
-        },
+            inner_radius,
+        }
+    };
+    vec![
+        closed("icosphere", vertices.clone(), Vec3::ZERO),
+        closed("jittered", jittered, Vec3::ZERO),
+        closed("far", far, center),
     ]
 }
 
-/// `count` rays from inside `closed` aimed at its vertices (half) and edge midpoints (half).
+/// The distance from `center` to the nearest face plane of `mesh` (star-shaped around it).
+fn inner_radius(mesh: &Mesh, center: Vec3) -> f32 {
+    (0..mesh.triangle_count() as u32)
+        .map(|id| {
+            let [a, b, c] = mesh.triangle(id).map(|v| (v - center).as_dvec3());
+            (b - a).cross(c - a).normalize().dot(a).abs()
+        })
+        .fold(f64::INFINITY, f64::min) as f32
+}
+
+/// `count` rays from inside `closed` (within 0.9 of its inner radius of the centre, so that
+/// every origin is inside: an origin outside could graze a vertex and rightly miss) aimed at
+/// its vertices (half) and edge midpoints (half).
 pub fn aimed_rays(closed: &ClosedMesh, count: usize, seed: u64) -> Vec<Ray> {
     let (vertices, triangles) = (closed.mesh.vertices(), closed.mesh.triangles());
     let mut rng = SplitMix64::new(seed);
     let mut rays = Vec::with_capacity(count);
     while rays.len() < count {
-        let origin = closed.center + rng.unit_vector() * rng.range_f32(0.0, 0.9);
+        let reach = 0.9 * closed.inner_radius;
+        let origin = closed.center + rng.unit_vector() * rng.range_f32(0.0, reach);
         let tri = triangles[rng.below(triangles.len() as u64) as usize];
         let corner = rng.below(3) as usize;
         let a = vertices[tri[corner] as usize];
@@ -167,6 +181,11 @@ mod tests {
                 closed.name
             );
             assert_eq!(closed.mesh.triangle_count(), 5_120);
+            assert!(
+                (0.1..1.0).contains(&closed.inner_radius),
+                "{}",
+                closed.inner_radius
+            );
             for ray in aimed_rays(&closed, 100, 1) {
                 assert!(
                     (ray.origin - closed.center).length() < 0.91,
