@@ -218,28 +218,31 @@ fn slab(r: &RayF64, node: &Node, tmax: f64) -> bool {
     enter <= exit || enter.is_nan() || exit.is_nan()
 }
 
+/// The judge tests' mesh: two triangles sharing the edge x = 0 in the plane z = 2, and one
+/// behind them at z = 5.
+#[cfg(test)]
+pub(crate) fn test_mesh() -> Mesh {
+    use raybatch::glam::Vec3;
+    let v = vec![
+        Vec3::new(0.0, -1.0, 2.0),
+        Vec3::new(0.0, 1.0, 2.0),
+        Vec3::new(-1.0, 0.0, 2.0),
+        Vec3::new(1.0, 0.0, 2.0),
+        Vec3::new(-4.0, -4.0, 5.0),
+        Vec3::new(4.0, -4.0, 5.0),
+        Vec3::new(0.0, 4.0, 5.0),
+    ];
+    Mesh::new(v, vec![[0, 1, 2], [1, 0, 3], [4, 5, 6]]).unwrap()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
     use raybatch::glam::Vec3;
 
-    /// Two triangles sharing the edge x = 0 in the plane z = 2, and one behind at z = 5.
-    fn mesh() -> Mesh {
-        let v = vec![
-            Vec3::new(0.0, -1.0, 2.0),
-            Vec3::new(0.0, 1.0, 2.0),
-            Vec3::new(-1.0, 0.0, 2.0),
-            Vec3::new(1.0, 0.0, 2.0),
-            Vec3::new(-4.0, -4.0, 5.0),
-            Vec3::new(4.0, -4.0, 5.0),
-            Vec3::new(0.0, 4.0, 5.0),
-        ];
-        Mesh::new(v, vec![[0, 1, 2], [1, 0, 3], [4, 5, 6]]).unwrap()
-    }
-
     #[test]
     fn known_hits_in_f64() {
-        let judge = Reference::new(&mesh());
+        let judge = Reference::new(&test_mesh());
         let down = |x, y| Ray::new(Vec3::new(x, y, 0.0), Vec3::Z);
         let hit = |ray| judge.closest(&ray).map(|h| (h.triangle, h.t));
         assert_eq!(hit(down(-0.25, 0.0)), Some((0, 2.0)));

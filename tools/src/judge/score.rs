@@ -111,7 +111,7 @@ fn is_tie(judge: &Reference, ray: &Ray, j: &JudgeHit, triangle: u32, scale: f64)
 #[cfg(test)]
 mod tests {
     use super::*;
-    use raybatch::Mesh;
+    use crate::judge::reference::test_mesh;
     use raybatch::glam::Vec3;
 
     fn hit(triangle: u32, t: f32) -> Option<Hit> {
@@ -126,17 +126,7 @@ mod tests {
     #[test]
     fn counts_each_kind_of_disagreement() {
         // Triangles 0 and 1 share the edge x = 0 at z = 2; triangle 2 is at z = 5.
-        let v = vec![
-            Vec3::new(0.0, -1.0, 2.0),
-            Vec3::new(0.0, 1.0, 2.0),
-            Vec3::new(-1.0, 0.0, 2.0),
-            Vec3::new(1.0, 0.0, 2.0),
-            Vec3::new(-4.0, -4.0, 5.0),
-            Vec3::new(4.0, -4.0, 5.0),
-            Vec3::new(0.0, 4.0, 5.0),
-        ];
-        let mesh = Mesh::new(v, vec![[0, 1, 2], [1, 0, 3], [4, 5, 6]]).unwrap();
-        let judge = Reference::new(&mesh);
+        let judge = Reference::new(&test_mesh());
         let down = |x: f32| Ray::new(Vec3::new(x, 0.0, 0.0), Vec3::Z);
         let rays = [
             down(-0.5),

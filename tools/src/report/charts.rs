@@ -255,14 +255,7 @@ fn per_ray_vs_batched(dir: &Path, records: &[Record]) -> io::Result<Option<Chart
             .label(engine)
             .legend(move |(x, y)| Rectangle::new([(x, y - 6), (x + 14, y + 6)], color.filled()));
     }
-    chart
-        .configure_series_labels()
-        .position(SeriesLabelPosition::UpperRight)
-        .label_font(("sans-serif", 15))
-        .background_style(WHITE)
-        .border_style(BLACK)
-        .draw()
-        .map_err(io_error)?;
+    legend(&mut chart, SeriesLabelPosition::UpperRight)?;
     root.present().map_err(io_error)?;
     Ok(Some(Chart {
         file: file.to_string(),
@@ -271,6 +264,25 @@ fn per_ray_vs_batched(dir: &Path, records: &[Record]) -> io::Result<Option<Chart
              {DEFAULT_MODE}."
         ),
     }))
+}
+
+/// Draws the chart's series legend at `position`.
+fn legend<'a, DB, CT>(
+    chart: &mut ChartContext<'a, DB, CT>,
+    position: SeriesLabelPosition,
+) -> io::Result<()>
+where
+    DB: DrawingBackend + 'a,
+    CT: plotters::coord::CoordTranslate,
+{
+    chart
+        .configure_series_labels()
+        .position(position)
+        .label_font(("sans-serif", 15))
+        .background_style(WHITE)
+        .border_style(BLACK)
+        .draw()
+        .map_err(io_error)
 }
 
 /// The name of category `x` (an integer position), or nothing between categories.
@@ -345,14 +357,7 @@ fn batch_size_sweep(dir: &Path, records: &[Record]) -> io::Result<Option<Chart>>
         .map_err(io_error)?
         .label("per ray")
         .legend(|(x, y)| PathElement::new([(x, y), (x + 16, y)], BLUE.stroke_width(2)));
-    chart
-        .configure_series_labels()
-        .position(SeriesLabelPosition::LowerRight)
-        .label_font(("sans-serif", 15))
-        .background_style(WHITE)
-        .border_style(BLACK)
-        .draw()
-        .map_err(io_error)?;
+    legend(&mut chart, SeriesLabelPosition::LowerRight)?;
     root.present().map_err(io_error)?;
     Ok(Some(Chart {
         file: file.to_string(),
