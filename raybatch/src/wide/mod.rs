@@ -37,6 +37,7 @@ use crate::geom::{Aabb, PreparedRay, TriangleTest};
 use crate::hit::Visitor;
 use crate::mesh::Mesh;
 use node::WideNode;
+use single::Stack;
 
 /// A 4-wide BVH over a mesh (see the module docs).
 #[derive(Clone, Debug)]
@@ -109,17 +110,14 @@ fn check_size(slots: usize, binary_nodes: usize) -> Result<(), BuildError> {
 #[derive(Debug, Default)]
 pub struct WideScratch {
     /// One-ray stack: child word and entry distance.
-    stack: Vec<(u32, f32)>,
-    /// Stream: the rays, prepared.
-    rays: Vec<PreparedRay>,
-    /// Stream: the lists of ray indices.
-    ids: Vec<u32>,
-    /// Stream: child masks of the list being split.
-    masks: Vec<u8>,
-    /// Stream: the lists waiting.
-    pending: Vec<stream::Pending>,
+    stack: Stack,
+    /// Stream: the index lists and what splitting them needs.
+    lists: stream::Lists,
+    /// Stream: copies of the rays of a stream in lanes, and their batch positions.
+    copies: Vec<PreparedRay>,
+    batch_ids: Vec<u32>,
     /// Interleaved engine: one stack per walker.
-    stacks: [Vec<(u32, f32)>; interleaved::LANES],
+    stacks: [Stack; interleaved::LANES],
 }
 
 impl Accel for WideTree {
@@ -150,7 +148,7 @@ impl Accel for WideTree {
         if interleave {
             dispatch::trace_interleaved::<K, V>(true, self, stream, &mut scratch.stacks, visitor)
         } else {
-            stream::trace_stream::<K, V>(self, stream, scratch, visitor)
+            dispatch::trace_shared::<K, V>(true, self, stream, scratch, visitor)
         }
     }
 }
@@ -216,7 +214,7 @@ mod tests {
         }
         let mesh = Arc::new(bunny());
         let tree = WideTree::build(mesh.clone(), &BuildOptions::default()).unwrap();
-        let mut stack = Vec::new();
+        let mut stack = Stack::default();
         for ray in random_rays(&mesh, 20_000, 8) {
             let prepared = PreparedRay::new(&ray).unwrap();
             let mut answers = [Hit::none_before(prepared.tmax); 2];
