@@ -154,13 +154,14 @@ impl Accel for WideTree {
 }
 
 /// [`Interleave::Auto`] interleaves rays above this many bytes of nodes, leaf order and mesh.
-/// Below it the tree mostly stays in cache and sharing nodes does less work; far above it each
+/// Below it the tree mostly stays in cache and sharing nodes does less work; above it each
 /// ray waits on memory at most nodes, and walking rays side by side hides the wait. Measured
-/// (one thread, best of 4 runs, nodes shared vs interleaved): teapot (0.3 MB) 182 vs 251 ms on
-/// 1M rays (`raybatch query --passes 3`); with `cargo run --release -p raybatch-tools --example
-/// interleave -- SCENE` on 500k rays: bunny (4.0 MB) at the crossover (239 vs 189 ms in one
-/// run, 242 vs 296 on 1M rays in another), city (4.9 MB) 220 vs 206, terrain (54 MB) 636 vs 250.
-const INTERLEAVE_ABOVE_BYTES: usize = 4 << 20;
+/// (one thread, 200k incoherent rays, best of 3-4 runs of `raybatch query --passes 3`, nodes
+/// shared vs side by side, on a loaded machine): teapot (0.3 MB) 55 vs 91 ms; bunny (4.0 MB)
+/// 133 vs 67 and 137 vs 102 ms since the one-ray loop pushes children without branches (it was
+/// at the crossover before, hence the earlier 4 MiB); city (4.9 MB) and terrain (54 MB) were
+/// already faster side by side (`cargo run --release -p raybatch-tools --example interleave`).
+const INTERLEAVE_ABOVE_BYTES: usize = 1 << 20;
 
 impl WideTree {
     /// What a walk through the tree may read: nodes, leaf order (and corners) and the mesh.
