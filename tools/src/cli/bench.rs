@@ -25,6 +25,7 @@ use raybatch_tools::scenes::{self, RaySet, Scene, SceneKind};
 use crate::args::BenchArgs;
 use crate::compare::{self, BatchedRow, Subject};
 use crate::error::CliError;
+use crate::progress::{self, Job};
 use crate::inputs::load_mesh;
 use crate::measure::time_ms;
 use crate::runner::{Engine, QueryKind};
@@ -55,6 +56,8 @@ struct Plan {
     /// Rays per set for the orderings other than pns.
     variant_rays: usize,
     leaf: u32,
+    /// The structures to measure (`--trees`), in [`AccelKind::ALL`] order.
+    trees: Vec<AccelKind>,
     orderings: &'static [ChildOrdering],
     batch_sizes: &'static [usize],
 }
@@ -72,6 +75,10 @@ impl Plan {
             rays,
             variant_rays: rays.min(VARIANT_RAYS),
             leaf: args.leaf,
+            trees: AccelKind::ALL
+                .into_iter()
+                .filter(|k| args.trees.as_ref().is_none_or(|t| t.contains(k)))
+                .collect(),
             orderings,
             batch_sizes,
         }
@@ -86,6 +93,13 @@ impl Plan {
     /// Whether some ordering runs on fewer rays than pns.
     fn has_variant_rays(&self) -> bool {
         self.variant_rays < self.rays && self.orderings.iter().any(|&o| o != ChildOrdering::Pns)
+    }
+
+    /// The orderings `kind` is measured with: a structure that ignores the ordering is
+    /// measured once, as pns.
+    fn orderings_of(&self, kind: AccelKind) -> impl Iterator<Item = ChildOrdering> + '_ {
+        let orderings = self.orderings.iter().copied();
+        orderings.filter(move |&o| kind.uses_child_ordering() || o == ChildOrdering::Pns)
     }
 }
 
@@ -131,7 +145,7 @@ fn load_scenes(args: &BenchArgs) -> Result<Vec<BenchScene>, CliError> {
     }
     let scenes = match &args.scenes {
         None => {
-            progress("generating the built-in scenes ...");
+            progress::step("generating the built-in scenes");
             scenes::builtin()
         }
         Some(names) => names
@@ -145,7 +159,7 @@ fn load_scenes(args: &BenchArgs) -> Result<Vec<BenchScene>, CliError> {
 
 /// The built-in scene called `name` (one of [`SCENE_NAMES`]; the parser checked).
 fn builtin_scene(name: &str) -> Scene {
-    progress(&format!("{name}: generating the scene ..."));
+    progress::step(format!("{name}: generating the scene"));
     match name {
         "bunny" => scenes::bunny(),
         "terrain" => scenes::terrain(scenes::BUILTIN_TERRAIN_CELLS),
@@ -175,8 +189,8 @@ struct SceneRays {
 impl SceneRays {
     fn generate(scene: &BenchScene, plan: &Plan) -> Self {
         let generate = |count| {
-            progress(&format!(
-                "{}: generating {count} rays per set ...",
+            progress::step(format!(
+                "{}: generating {count} rays per set",
                 scene.name
             ));
             RaySets::generate(&scene.mesh, scene.kind, count)
@@ -237,7 +251,12 @@ impl SceneReport {
         ];
         sections.extend(self.details.iter().cloned());
         // One blank line between sections, whether or not they end in a newline.
-        let sections: Vec<&str> = sections.iter().map(|s| s.trim_end()).collect();
+        // (`--trees` may leave some out: no zero-byte tree, no default tree.)
+        let sections: Vec<&str> = sections
+            .iter()
+            .map(|s| s.trim_end())
+            .filter(|s| !s.is_empty())
+            .collect();
         sections.join("\n\n") + "\n"
     }
 }
@@ -246,9 +265,12 @@ impl SceneReport {
 fn bench_scene(scene: &BenchScene, plan: &Plan) -> String {
     let rays = SceneRays::generate(scene, plan);
     let mut report = SceneReport::default();
-    for kind in AccelKind::ALL {
-        bench_kind(kind, scene, plan, &rays, &mut report);
+    let trees = plan.trees.iter().map(|&k| plan.orderings_of(k).count()).sum::<usize>();
+    let job = Job::start(&scene.name, trees as u64, "trees");
+    for &kind in &plan.trees {
+        bench_kind(kind, scene, plan, &rays, &mut report, &job);
     }
+    job.finish();
     report.zero_memory = zero_memory(scene, &rays.all, &report.rows);
     report.render(scene, plan)
 }
@@ -261,11 +283,9 @@ fn bench_kind(
     plan: &Plan,
     rays: &SceneRays,
     report: &mut SceneReport,
+    job: &Job,
 ) {
-    let orderings = plan.orderings.iter().copied();
-    // A structure that ignores the ordering is measured once, as pns.
-    let orderings = orderings.filter(|&o| kind.uses_child_ordering() || o == ChildOrdering::Pns);
-    for ordering in orderings {
+    for ordering in plan.orderings_of(kind) {
         let (row, tree) = bench_tree(kind, scene, plan, ordering, rays.for_ordering(ordering));
         if ordering == ChildOrdering::Pns {
             let subject = Subject {
@@ -281,6 +301,7 @@ fn bench_kind(
             }
         }
         report.rows.push(row);
+        job.advance();
     }
 }
 
@@ -294,16 +315,21 @@ const BRUTE_FORCE_MIN_RAYS: usize = 100;
 /// beside the mesh) against the zero-byte trees, closest hit on incoherent rays, and what the
 /// zero-byte trees keep beside the mesh.
 fn zero_memory(scene: &BenchScene, rays: &RaySets, rows: &[Row]) -> String {
+    let zero_byte = |r: &&Row| matches!(r.tree, AccelKind::Zbt | AccelKind::ZbtNoCache);
+    if !rows.iter().any(|r| zero_byte(&r)) {
+        // `--trees` left both out.
+        return String::new();
+    }
     let incoherent = rays.get(RaySet::Incoherent);
     let affordable = BRUTE_FORCE_TESTS / scene.mesh.triangle_count().max(1);
     let count = affordable.clamp(BRUTE_FORCE_MIN_RAYS, BRUTE_FORCE_RAYS);
     let sample = &incoherent[..incoherent.len().min(count)];
-    progress(&format!("{}: brute force ...", scene.name));
+    progress::step(format!("{}: brute force", scene.name));
     let brute = brute_force_speed(&scene.mesh, sample);
     let zbt = rows
         .iter()
         .filter(|r| r.ordering == ChildOrdering::Pns)
-        .filter(|r| matches!(r.tree, AccelKind::Zbt | AccelKind::ZbtNoCache))
+        .filter(zero_byte)
         .map(|r| {
             let speed = r.speed_of(QueryKind::Closest, RaySet::Incoherent);
             format!(
@@ -368,14 +394,16 @@ fn bench_tree(
     rays: &RaySets,
 ) -> (Row, AnyAccel) {
     let label = format!("{}: {}/{}", scene.name, kind.name(), ordering.name());
-    progress(&format!("{label}: building ..."));
+    progress::step(format!("{label}: building"));
     let options = plan.options(ordering);
     let (tree, build_ms) = build(kind, &scene.mesh, options.with_parallel(false));
     let (_, parallel_build_ms) = build(kind, &scene.mesh, options);
-    progress(&format!("{label}: querying ..."));
     let mrays = COLUMNS
         .iter()
-        .map(|c| speed(&tree, c.query(Engine::PerRay), rays.get(c.set)))
+        .map(|c| {
+            progress::step(format!("{label}: per-ray {}", c.title()));
+            speed(&tree, c.query(Engine::PerRay), rays.get(c.set))
+        })
         .collect();
     let row = Row {
         tree: kind,
@@ -470,7 +498,4 @@ fn speedup(row: &Row, base: &Row) -> f64 {
     (logs / row.mrays.len() as f64).exp()
 }
 
-/// Reports progress on stderr.
-pub fn progress(message: &str) {
-    eprintln!("{message}");
-}
+
