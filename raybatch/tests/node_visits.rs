@@ -31,13 +31,21 @@ fn visits_come_with_the_closest_hit_on_every_structure() {
                 assert_eq!(opt_bits(hit), opt_bits(tree.cast_ray_with(&ray, kernel)));
                 assert!(hit.is_some() && visits >= 1, "{}: {visits}", kind.name());
                 let away = Ray::new(origin, origin);
-                assert_eq!(tree.cast_ray_visits(&away, kernel), (None, 0), "{}", kind.name());
+                assert_eq!(
+                    tree.cast_ray_visits(&away, kernel),
+                    (None, 0),
+                    "{}",
+                    kind.name()
+                );
                 let short = Ray::with_range(origin, target - origin, 0.0, 0.05);
                 let (none, fewer) = tree.cast_ray_visits(&short, kernel);
                 assert!(none.is_none() && fewer < visits, "{}", kind.name());
             }
         }
         let invalid = Ray::new(Vec3::NAN, Vec3::X);
-        assert_eq!(tree.cast_ray_visits(&invalid, Kernel::Watertight), (None, 0));
+        assert_eq!(
+            tree.cast_ray_visits(&invalid, Kernel::Watertight),
+            (None, 0)
+        );
     }
 }

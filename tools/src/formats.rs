@@ -216,7 +216,10 @@ mod tests {
             .collect();
         let bytes = encode_rays(&rays);
         assert_eq!(read_rays(Trickle(&bytes, 0), None).unwrap(), rays);
-        assert_eq!(read_rays(&bytes[..], Some(bytes.len() as u64)).unwrap(), rays);
+        assert_eq!(
+            read_rays(&bytes[..], Some(bytes.len() as u64)).unwrap(),
+            rays
+        );
         assert!(matches!(
             read_rays(&bytes[..], Some(u64::MAX - 31)),
             Err(RayFileError::TooLarge { .. })

@@ -421,9 +421,23 @@ fn bad_flags_are_usage_errors() {
     assert_fails(&dir, &mesh, &rays, &["--kind", "nearest"], 2, "--kind");
     assert_fails(&dir, &mesh, &rays, &[], 2, "--kind <KIND>");
     let unknown = ["--kind", "any", "--fast"];
-    assert_fails(&dir, &mesh, &rays, &unknown, 2, "unexpected argument '--fast'");
+    assert_fails(
+        &dir,
+        &mesh,
+        &rays,
+        &unknown,
+        2,
+        "unexpected argument '--fast'",
+    );
     let twice = ["--kind", "any", "--leaf", "2", "--leaf", "3"];
-    assert_fails(&dir, &mesh, &rays, &twice, 2, "cannot be used multiple times");
+    assert_fails(
+        &dir,
+        &mesh,
+        &rays,
+        &twice,
+        2,
+        "cannot be used multiple times",
+    );
     assert_fails(
         &dir,
         &mesh,
@@ -529,7 +543,10 @@ fn bench_filters_select_trees() {
     // The main table and per-ray vs batched (the sweep needs the default tree, bvh4: present).
     let main = &tables[0];
     assert_eq!(main.len(), 2 + 2, "{out}");
-    assert!(main[2].starts_with("| bvh4 ") && main[3].starts_with("| kd "), "{out}");
+    assert!(
+        main[2].starts_with("| bvh4 ") && main[3].starts_with("| kd "),
+        "{out}"
+    );
     assert!(!out.contains("Zero memory"), "{out}");
     let bad = raybatch(&["bench", "--trees", "octree"]);
     assert_eq!(bad.status.code(), Some(2));
@@ -549,8 +566,22 @@ fn threads_are_capped() {
     let ok = ["--kind", "any", "--batched", "--threads", &max];
     query_ok(&dir, &mesh, &rays, &ok);
     let too_many = ["--kind", "any", "--threads", &over];
-    assert_fails(&dir, &mesh, &rays, &too_many, 2, &format!("more than {max}"));
-    assert_fails(&dir, &mesh, &rays, &["--kind", "any", "--threads", "20000"], 2, "per core");
+    assert_fails(
+        &dir,
+        &mesh,
+        &rays,
+        &too_many,
+        2,
+        &format!("more than {max}"),
+    );
+    assert_fails(
+        &dir,
+        &mesh,
+        &rays,
+        &["--kind", "any", "--threads", "20000"],
+        2,
+        "per core",
+    );
 }
 
 /// `--out` never destroys an input: the same file by its own path, through a symbolic link
@@ -568,13 +599,34 @@ fn output_equal_to_an_input_is_refused() {
     for out in [&rays, &hard, &soft, &dotted, &mesh] {
         let args = ["--kind", "closest"];
         let output = query(&mesh, &rays, out, &args);
-        assert_eq!(output.status.code(), Some(2), "{out:?}: {}", stderr(&output));
-        assert!(stderr(&output).contains("the same file as the input"), "{}", stderr(&output));
+        assert_eq!(
+            output.status.code(),
+            Some(2),
+            "{out:?}: {}",
+            stderr(&output)
+        );
+        assert!(
+            stderr(&output).contains("the same file as the input"),
+            "{}",
+            stderr(&output)
+        );
     }
     assert_eq!(std::fs::read(&rays).unwrap(), before);
-    assert!(std::fs::symlink_metadata(&soft).unwrap().file_type().is_symlink());
+    assert!(
+        std::fs::symlink_metadata(&soft)
+            .unwrap()
+            .file_type()
+            .is_symlink()
+    );
     let rays_out = raybatch(&[
-        "rays", "--mesh", mesh.to_str().unwrap(), "--set", "camera", "--count", "5", "--out",
+        "rays",
+        "--mesh",
+        mesh.to_str().unwrap(),
+        "--set",
+        "camera",
+        "--count",
+        "5",
+        "--out",
         mesh.to_str().unwrap(),
     ]);
     assert_eq!(rays_out.status.code(), Some(2), "{}", stderr(&rays_out));
@@ -596,14 +648,24 @@ fn output_targets_that_are_not_regular_files() {
     std::os::unix::fs::symlink(&target, &link).unwrap();
     let output = query(&mesh, &rays, &link, &["--kind", "closest"]);
     assert!(output.status.success(), "{}", stderr(&output));
-    assert!(std::fs::symlink_metadata(&link).unwrap().file_type().is_symlink());
+    assert!(
+        std::fs::symlink_metadata(&link)
+            .unwrap()
+            .file_type()
+            .is_symlink()
+    );
     assert!(std::fs::read(&target).unwrap() == expected);
 
     let null = Path::new("/dev/null");
     let output = query(&mesh, &rays, null, &["--kind", "closest"]);
     assert!(output.status.success(), "{}", stderr(&output));
     use std::os::unix::fs::FileTypeExt;
-    assert!(std::fs::metadata(null).unwrap().file_type().is_char_device());
+    assert!(
+        std::fs::metadata(null)
+            .unwrap()
+            .file_type()
+            .is_char_device()
+    );
 
     let output = query(&mesh, &rays, Path::new("-"), &["--kind", "closest"]);
     assert!(output.status.success(), "{}", stderr(&output));
@@ -630,7 +692,9 @@ fn files_that_are_not_obj_are_refused() {
                property float z\nelement face 1\nproperty list uchar int vertex_indices\n\
                end_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n";
     let readme = "# raybatch\n\nBatches of ray queries against triangle meshes.\n";
-    let random: String = (0..500u32).map(|i| char::from(b'!' + (i * 37 % 90) as u8)).collect();
+    let random: String = (0..500u32)
+        .map(|i| char::from(b'!' + (i * 37 % 90) as u8))
+        .collect();
     let vertices_only = "v 0 0 0\nv 1 0 0\nv 0 1 0\n";
     for (name, text) in [
         ("cube.stl", stl),
@@ -650,7 +714,14 @@ fn files_that_are_not_obj_are_refused() {
     binary.extend((0..50).map(|i| 0x80 + i as u8));
     let path = dir.path("binary.stl");
     std::fs::write(&path, binary).unwrap();
-    assert_fails(&dir, &path, &rays, &["--kind", "closest"], 1, "line 1: not UTF-8");
+    assert_fails(
+        &dir,
+        &path,
+        &rays,
+        &["--kind", "closest"],
+        1,
+        "line 1: not UTF-8",
+    );
 }
 
 /// Old Mac `\r` line endings are lines; a non-UTF-8 byte in a comment is accepted, elsewhere
@@ -703,8 +774,17 @@ fn render_draws_the_mesh() {
     let render = |extra: &[&str]| {
         let out = dir.path("image.png");
         let args = [
-            "render", "--mesh", mesh_arg, "--out", out.to_str().unwrap(), "--width", "40",
-            "--height", "30", "--view", "0,0,1",
+            "render",
+            "--mesh",
+            mesh_arg,
+            "--out",
+            out.to_str().unwrap(),
+            "--width",
+            "40",
+            "--height",
+            "30",
+            "--view",
+            "0,0,1",
         ];
         let output = raybatch(&[&args[..], extra].concat());
         assert!(output.status.success(), "{extra:?}: {}", stderr(&output));
@@ -714,17 +794,37 @@ fn render_draws_the_mesh() {
     assert_eq!((w, h, normal.len()), (40, 30, 40 * 30 * 3));
     let pixel = |img: &[u8], x: usize, y: usize| img[3 * (y * 40 + x)..][..3].to_vec();
     let background = pixel(&normal, 0, 0);
-    assert_ne!(pixel(&normal, 20, 15), background, "the mesh is in the middle");
+    assert_ne!(
+        pixel(&normal, 20, 15),
+        background,
+        "the mesh is in the middle"
+    );
     for kind in raybatch::AccelKind::ALL.map(|k| k.name()) {
         let (_, _, batched) = render(&["--batched", "--tree", kind]);
         assert!(batched == normal, "{kind}: batched image differs");
         let (_, _, heat) = render(&["--shade", "heat", "--tree", kind]);
-        assert_ne!(pixel(&heat, 20, 15), [0, 0, 0], "{kind}: the walk entered nodes");
+        assert_ne!(
+            pixel(&heat, 20, 15),
+            [0, 0, 0],
+            "{kind}: the walk entered nodes"
+        );
     }
     let (_, _, depth) = render(&["--shade", "depth"]);
     assert_ne!(pixel(&depth, 20, 15), pixel(&depth, 0, 0));
     let heat_batched = raybatch(&[
-        "render", "--mesh", mesh_arg, "--out", "x.png", "--shade", "heat", "--batched",
+        "render",
+        "--mesh",
+        mesh_arg,
+        "--out",
+        "x.png",
+        "--shade",
+        "heat",
+        "--batched",
     ]);
-    assert_eq!(heat_batched.status.code(), Some(2), "{}", stderr(&heat_batched));
+    assert_eq!(
+        heat_batched.status.code(),
+        Some(2),
+        "{}",
+        stderr(&heat_batched)
+    );
 }

@@ -120,7 +120,11 @@ fn lines(bytes: &[u8]) -> impl Iterator<Item = &[u8]> {
                 (!text.is_empty()).then_some(text)
             }
             Some(end) => {
-                let skip = if text[end..].starts_with(b"\r\n") { 2 } else { 1 };
+                let skip = if text[end..].starts_with(b"\r\n") {
+                    2
+                } else {
+                    1
+                };
                 rest = Some(&text[end + skip..]);
                 Some(&text[..end])
             }
@@ -305,13 +309,17 @@ mod tests {
 
     #[test]
     fn bytes_outside_utf8_are_accepted_in_comments_only() {
-        let mut file = b"# made by Ren\xe9\nv 0 0 0\nv 1 0 0 # \xff\xfe\nv 0 1 0\nf 1 2 3\n".to_vec();
+        let mut file =
+            b"# made by Ren\xe9\nv 0 0 0\nv 1 0 0 # \xff\xfe\nv 0 1 0\nf 1 2 3\n".to_vec();
         let (v, t) = parse_obj_bytes(&file).expect("comments may hold any bytes");
         assert_eq!((v.len(), t.len()), (3, 1));
         file.extend_from_slice(b"g caf\xe9\n");
         let e = parse_obj_bytes(&file).unwrap_err();
         assert_eq!((e.line, &e.kind), (6, &ObjErrorKind::NotUtf8));
-        assert_eq!(e.to_string(), "line 6: not UTF-8 text (is this an OBJ file?)");
+        assert_eq!(
+            e.to_string(),
+            "line 6: not UTF-8 text (is this an OBJ file?)"
+        );
     }
 
     #[test]

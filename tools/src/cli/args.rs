@@ -222,9 +222,8 @@ fn choice<T: Copy + Send + Sync + 'static>(
 /// The structures of [`AccelKind::ALL`], by name, each with its summary in the help.
 fn tree_parser() -> impl TypedValueParser<Value = AccelKind> {
     let values = AccelKind::ALL.map(|k| PossibleValue::new(k.name()).help(k.summary()));
-    PossibleValuesParser::new(values).map(|text| {
-        AccelKind::from_name(&text).expect("clap only passes the possible values")
-    })
+    PossibleValuesParser::new(values)
+        .map(|text| AccelKind::from_name(&text).expect("clap only passes the possible values"))
 }
 
 /// A whole number of at least 1.
@@ -283,6 +282,8 @@ fn direction(text: &str) -> Result<[f32; 3], String> {
         Ok(&[x, y, z]) if [x, y, z].iter().all(|v| v.is_finite()) && [x, y, z] != [0.0; 3] => {
             Ok([x, y, z])
         }
-        _ => Err(format!("'{text}' is not three finite numbers X,Y,Z, not all 0")),
+        _ => Err(format!(
+            "'{text}' is not three finite numbers X,Y,Z, not all 0"
+        )),
     }
 }

@@ -25,9 +25,9 @@ use raybatch_tools::scenes::{self, RaySet, Scene, SceneKind};
 use crate::args::BenchArgs;
 use crate::compare::{self, BatchedRow, Subject};
 use crate::error::CliError;
-use crate::progress::{self, Job};
 use crate::inputs::load_mesh;
 use crate::measure::time_ms;
+use crate::progress::{self, Job};
 use crate::runner::{Engine, QueryKind};
 use crate::table::{Align, Table, ratio, thousands};
 use crate::workload::{COLUMNS, PASSES, RaySets, speed};
@@ -189,10 +189,7 @@ struct SceneRays {
 impl SceneRays {
     fn generate(scene: &BenchScene, plan: &Plan) -> Self {
         let generate = |count| {
-            progress::step(format!(
-                "{}: generating {count} rays per set",
-                scene.name
-            ));
+            progress::step(format!("{}: generating {count} rays per set", scene.name));
             RaySets::generate(&scene.mesh, scene.kind, count)
         };
         Self {
@@ -265,7 +262,11 @@ impl SceneReport {
 fn bench_scene(scene: &BenchScene, plan: &Plan) -> String {
     let rays = SceneRays::generate(scene, plan);
     let mut report = SceneReport::default();
-    let trees = plan.trees.iter().map(|&k| plan.orderings_of(k).count()).sum::<usize>();
+    let trees = plan
+        .trees
+        .iter()
+        .map(|&k| plan.orderings_of(k).count())
+        .sum::<usize>();
     let job = Job::start(&scene.name, trees as u64, "trees");
     for &kind in &plan.trees {
         bench_kind(kind, scene, plan, &rays, &mut report, &job);
@@ -497,5 +498,3 @@ fn speedup(row: &Row, base: &Row) -> f64 {
         .sum();
     (logs / row.mrays.len() as f64).exp()
 }
-
-

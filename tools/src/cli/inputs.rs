@@ -29,9 +29,8 @@ pub fn load_mesh(path: &Path) -> Result<Mesh, CliError> {
 
 /// Reads a ray file (see [`raybatch_tools::formats`]), streaming it into the rays.
 pub fn read_rays(path: &Path) -> Result<Vec<Ray>, CliError> {
-    let cannot = |e: &dyn std::fmt::Display| {
-        CliError::input(format!("cannot read {}: {e}", path.display()))
-    };
+    let cannot =
+        |e: &dyn std::fmt::Display| CliError::input(format!("cannot read {}: {e}", path.display()));
     let file = File::open(path).map_err(|e| cannot(&e))?;
     let len = file.metadata().map_err(|e| cannot(&e))?.len();
     read_ray_file(BufReader::new(file), Some(len)).map_err(|e| cannot(&e))

@@ -24,8 +24,7 @@ fn bars() -> &'static Bars {
         let multi = MultiProgress::with_draw_target(ProgressDrawTarget::stderr());
         let step = multi.add(ProgressBar::new_spinner());
         step.set_style(
-            ProgressStyle::with_template("{spinner} {msg} ({elapsed})")
-                .expect("a valid template"),
+            ProgressStyle::with_template("{spinner} {msg} ({elapsed})").expect("a valid template"),
         );
         if !multi.is_hidden() {
             step.enable_steady_tick(TICK);
@@ -52,7 +51,8 @@ impl Job {
     pub fn start(what: impl Into<String>, len: u64, unit: &'static str) -> Self {
         let Bars { multi, step } = bars();
         let bar = multi.insert_before(step, ProgressBar::new(len));
-        let template = format!("{{prefix}} [{{bar:30}}] {{pos}}/{{len}} {unit} ({{elapsed}}, eta {{eta}})");
+        let template =
+            format!("{{prefix}} [{{bar:30}}] {{pos}}/{{len}} {unit} ({{elapsed}}, eta {{eta}})");
         bar.set_style(ProgressStyle::with_template(&template).expect("a valid template"));
         bar.set_prefix(what.into());
         Self { bar }

@@ -63,7 +63,9 @@ impl Camera {
     fn looking_at(mesh: &Mesh, view: Vec3, args: &RenderArgs) -> Self {
         let bounds = mesh.bounds();
         let centre = (bounds.min + bounds.max) * 0.5;
-        let radius = ((bounds.max - bounds.min) * 0.5).length().max(f32::MIN_POSITIVE);
+        let radius = ((bounds.max - bounds.min) * 0.5)
+            .length()
+            .max(f32::MIN_POSITIVE);
         let half_fov = (FOV_DEGREES.to_radians() * 0.5).tan();
         let distance = radius / (FOV_DEGREES.to_radians() * 0.5).sin();
         let forward = -view.normalize();
@@ -114,7 +116,10 @@ fn trace(tree: &AnyAccel, rays: &[Ray], args: &RenderArgs) -> Result<Vec<Pixel>,
         let mut hits = vec![None; rays.len()];
         tree.cast_rays(rays, &mut hits)
             .map_err(|e| CliError::input(format!("batched query failed: {e}")))?;
-        return Ok(hits.into_iter().map(|hit| Pixel { hit, visits: 0 }).collect());
+        return Ok(hits
+            .into_iter()
+            .map(|hit| Pixel { hit, visits: 0 })
+            .collect());
     }
     let job = Job::start("rendering", u64::from(args.height), "rows");
     let heat = args.shade == Shade::Heat;
@@ -170,13 +175,17 @@ fn normal(mesh: &Mesh, ray: &Ray, hit: &Hit) -> [u8; 3] {
         n = -n;
     }
     let light = 0.35 + 0.65 * n.dot(-view).abs();
-    ((n * 0.5 + Vec3::splat(0.5)) * light).to_array().map(unit_to_byte)
+    ((n * 0.5 + Vec3::splat(0.5)) * light)
+        .to_array()
+        .map(unit_to_byte)
 }
 
 /// Nearest and farthest hit distance in the image.
 fn depth_range(pixels: &[Pixel]) -> (f32, f32) {
     let ts = pixels.iter().filter_map(|p| p.hit.map(|h| h.t));
-    ts.fold((f32::INFINITY, 0.0f32), |(lo, hi), t| (lo.min(t), hi.max(t)))
+    ts.fold((f32::INFINITY, 0.0f32), |(lo, hi), t| {
+        (lo.min(t), hi.max(t))
+    })
 }
 
 /// Near is bright, far is dark.

@@ -41,7 +41,6 @@ impl QueryKind {
             QueryKind::Any => "any",
         }
     }
-
 }
 
 /// How the rays are traversed.

@@ -95,11 +95,7 @@ fn speed_rows(world: &World, rays: usize, table: &mut Table) {
     let bounds = world.bounds();
     let scene = AnyAccel::new(scene);
     for kind in WorldRays::ALL {
-        progress::step(format!(
-            "instanced: {} {} rays",
-            world.name,
-            kind.name()
-        ));
+        progress::step(format!("instanced: {} {} rays", world.name, kind.name()));
         let set = world_rays(kind, &bounds, rays, 5);
         let (one, many) = (
             speed(&scene, per_ray(), &set),
