@@ -9,7 +9,12 @@ use raybatch::mesh::obj::{parse_obj, parse_obj_bytes};
 fuzz_target!(|data: &[u8]| {
     let parsed = parse_obj_bytes(data);
     if let Ok((vertices, triangles)) = &parsed {
-        assert!(triangles.iter().flatten().all(|&i| (i as usize) < vertices.len()));
+        assert!(
+            triangles
+                .iter()
+                .flatten()
+                .all(|&i| (i as usize) < vertices.len())
+        );
         assert!(vertices.iter().all(|v| v.is_finite()));
     }
     if let Ok(text) = std::str::from_utf8(data) {

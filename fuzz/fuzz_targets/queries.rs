@@ -47,7 +47,13 @@ fn mesh(bytes: &mut Bytes) -> Option<Mesh> {
     let vertices: Option<Vec<Vec3>> = (0..vertex_count).map(|_| bytes.point(false)).collect();
     let index = |b: u8| u32::from(b) % vertex_count as u32;
     let triangles: Option<Vec<[u32; 3]>> = (0..triangle_count)
-        .map(|_| Some([index(bytes.byte()?), index(bytes.byte()?), index(bytes.byte()?)]))
+        .map(|_| {
+            Some([
+                index(bytes.byte()?),
+                index(bytes.byte()?),
+                index(bytes.byte()?),
+            ])
+        })
         .collect();
     Mesh::new(vertices?, triangles?).ok()
 }
@@ -69,20 +75,32 @@ fuzz_target!(|data: &[u8]| {
     let Some(mesh) = mesh(&mut bytes) else { return };
     let rays: Vec<Ray> = std::iter::from_fn(|| ray(&mut bytes)).take(64).collect();
     let mesh = Arc::new(mesh);
-    let bits = |h: Option<raybatch::Hit>| h.map(|h| (h.t.to_bits(), h.triangle, h.u.to_bits(), h.v.to_bits()));
+    let bits = |h: Option<raybatch::Hit>| {
+        h.map(|h| (h.t.to_bits(), h.triangle, h.u.to_bits(), h.v.to_bits()))
+    };
     for kind in AccelKind::ALL {
         let options = BuildOptions::default().with_leaf_size(1 + data.len() as u32 % 4);
-        let tree = kind.build(mesh.clone(), &options).expect("small meshes always build");
+        let tree = kind
+            .build(mesh.clone(), &options)
+            .expect("small meshes always build");
         for kernel in Kernel::ALL {
             let mut batched = vec![None; rays.len()];
-            let batch = raybatch::BatchOptions::default().with_kernel(kernel).with_parallel(false);
-            tree.cast_rays_with(&rays, &mut batched, &batch).expect("one slot per ray");
+            let batch = raybatch::BatchOptions::default()
+                .with_kernel(kernel)
+                .with_parallel(false);
+            tree.cast_rays_with(&rays, &mut batched, &batch)
+                .expect("one slot per ray");
             let mut occluded = vec![false; rays.len()];
-            tree.occluded_batch_with(&rays, &mut occluded, &batch).expect("one slot per ray");
+            tree.occluded_batch_with(&rays, &mut occluded, &batch)
+                .expect("one slot per ray");
             for (i, ray) in rays.iter().enumerate() {
                 let expected = brute_force::cast_ray(&mesh, ray, kernel);
                 let name = kind.name();
-                assert_eq!(bits(tree.cast_ray_with(ray, kernel)), bits(expected), "{name} {ray:?}");
+                assert_eq!(
+                    bits(tree.cast_ray_with(ray, kernel)),
+                    bits(expected),
+                    "{name} {ray:?}"
+                );
                 assert_eq!(bits(batched[i]), bits(expected), "{name} batched {ray:?}");
                 let (visited, _) = tree.cast_ray_visits(ray, kernel);
                 assert_eq!(bits(visited), bits(expected), "{name} visits {ray:?}");

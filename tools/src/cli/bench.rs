@@ -127,15 +127,18 @@ impl From<Scene> for BenchScene {
 pub fn run(args: &BenchArgs) -> Result<(), CliError> {
     let plan = Plan::from_args(args);
     for scene in load_scenes(args)? {
-        println!("{}", bench_scene(&scene, &plan));
+        let section = bench_scene(&scene, &plan);
+        progress::suspend(|| println!("{section}"));
     }
     let instanced = match &args.scenes {
         None => args.mesh.is_none(),
         Some(names) => names.iter().any(|n| n == crate::scene_bench::NAME),
     };
     if instanced {
-        println!("{}", crate::scene_bench::section(plan.rays));
+        let section = crate::scene_bench::section(plan.rays);
+        progress::suspend(|| println!("{section}"));
     }
+    progress::done();
     Ok(())
 }
 

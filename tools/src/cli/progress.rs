@@ -69,3 +69,14 @@ impl Job {
         bars().step.set_message("");
     }
 }
+
+/// Runs `print` (output on stdout) with the bars lifted, so that a terminal showing both
+/// gets the text whole.
+pub fn suspend<R>(print: impl FnOnce() -> R) -> R {
+    bars().multi.suspend(print)
+}
+
+/// Clears the step line, before a command prints its result on stderr.
+pub fn done() {
+    bars().step.finish_and_clear();
+}

@@ -19,6 +19,7 @@ use crate::inputs::{load_mesh, read_rays};
 use crate::json::JsonLine;
 use crate::measure::{Measurement, measure, measure_passes, time_ms};
 use crate::output::Output;
+use crate::progress;
 use crate::runner::{Engine, Query, QueryKind, QueryRunner};
 
 /// What answering the rays produced.
@@ -37,19 +38,25 @@ struct Answers<'t> {
 /// Runs the command.
 pub fn run(args: &QueryArgs) -> Result<(), CliError> {
     let output = Output::plan(&args.out, &[&args.mesh, &args.rays])?;
+    progress::step(format!("loading {}", args.mesh.display()));
     let mesh = load_mesh(&args.mesh)?;
     let triangles = mesh.triangle_count();
+    progress::step(format!("reading {}", args.rays.display()));
     let rays = read_rays(&args.rays)?;
+    progress::step(format!("building {}", args.tree.name()));
     let options = BuildOptions::default()
         .with_leaf_size(args.leaf)
         .with_leaf_corners(args.leaf_corners);
     let (tree, build_ms) = time_ms(|| args.tree.build(mesh, &options));
     let tree = tree.map_err(|e| CliError::input(format!("{}: {e}", args.mesh.display())))?;
+    progress::step(format!("answering {} rays", rays.len()));
     let answers = answer(&tree, build_ms, &rays, args)?;
+    progress::step("writing the answers");
     output.write(|out| match args.kind {
         QueryKind::Closest => write_closest(out, answers.runner.closest()),
         QueryKind::Any => write_occluded(out, answers.runner.occluded()),
     })?;
+    progress::done();
     eprintln!("{}", report(args, triangles, &answers).render());
     Ok(())
 }

@@ -34,6 +34,7 @@ pub fn run(args: &RenderArgs) -> Result<(), CliError> {
         ));
     }
     let output = Output::plan(&args.out, &[&args.mesh])?;
+    progress::step(format!("loading {}", args.mesh.display()));
     let mesh = load_mesh(&args.mesh)?;
     progress::step(format!("building {}", args.tree.name()));
     let tree = args
@@ -44,6 +45,7 @@ pub fn run(args: &RenderArgs) -> Result<(), CliError> {
     let rays = camera.rays();
     let pixels = trace(&tree, &rays, args)?;
     let image = shade(&mesh, &rays, &pixels, args.shade);
+    progress::done();
     eprintln!("{}", summary(&pixels, args));
     output.write(|out| write_png(out, args.width, args.height, &image))
 }
@@ -148,16 +150,12 @@ fn trace(tree: &AnyAccel, rays: &[Ray], args: &RenderArgs) -> Result<Vec<Pixel>,
 
 /// The RGB bytes of the image.
 fn shade(mesh: &Mesh, rays: &[Ray], pixels: &[Pixel], shade: Shade) -> Vec<u8> {
-    let colour: Box<dyn Fn(&Ray, &Pixel) -> [u8; 3]> = match shade {
-        Shade::Normal => Box::new(|ray, p| p.hit.map_or(BACKGROUND, |h| normal(mesh, ray, &h))),
-        Shade::Depth => {
-            let (near, far) = depth_range(pixels);
-            Box::new(move |_, p| p.hit.map_or(BACKGROUND, |h| depth(h.t, near, far)))
-        }
-        Shade::Heat => {
-            let most = pixels.iter().map(|p| p.visits).max().unwrap_or(0).max(1);
-            Box::new(move |_, p| heat(p.visits, most))
-        }
+    let (near, far) = depth_range(pixels);
+    let most = pixels.iter().map(|p| p.visits).max().unwrap_or(0).max(1);
+    let colour = |ray: &Ray, p: &Pixel| match shade {
+        Shade::Normal => p.hit.map_or(BACKGROUND, |h| normal(mesh, ray, &h)),
+        Shade::Depth => p.hit.map_or(BACKGROUND, |h| depth(h.t, near, far)),
+        Shade::Heat => heat(p.visits, most),
     };
     rays.iter()
         .zip(pixels)
