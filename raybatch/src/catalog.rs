@@ -198,6 +198,11 @@ impl AnyAccel {
         self.inner.cast_ray_with(ray, kernel)
     }
 
+    /// [`RayQueries::cast_ray_visits`].
+    pub fn cast_ray_visits(&self, ray: &Ray, kernel: Kernel) -> (Option<Hit>, u32) {
+        self.inner.cast_ray_visits(ray, kernel)
+    }
+
     /// [`RayQueries::occluded`].
     pub fn occluded(&self, ray: &Ray) -> bool {
         self.inner.occluded_with(ray, Kernel::Watertight)
@@ -301,6 +306,7 @@ impl std::fmt::Debug for AnyAccel {
 /// The queries without generic parameters, so that they can be called through `dyn`.
 trait Erased: Footprint + Send + Sync {
     fn cast_ray_with(&self, ray: &Ray, kernel: Kernel) -> Option<Hit>;
+    fn cast_ray_visits(&self, ray: &Ray, kernel: Kernel) -> (Option<Hit>, u32);
     fn occluded_with(&self, ray: &Ray, kernel: Kernel) -> bool;
     fn for_each_hit_with(&self, ray: &Ray, kernel: Kernel, f: &mut dyn FnMut(Hit));
     fn all_hits(&self, ray: &Ray) -> Vec<Hit>;
@@ -327,6 +333,9 @@ trait Erased: Footprint + Send + Sync {
 impl<A: Accel + Footprint + Send> Erased for A {
     fn cast_ray_with(&self, ray: &Ray, kernel: Kernel) -> Option<Hit> {
         RayQueries::cast_ray_with(self, ray, kernel)
+    }
+    fn cast_ray_visits(&self, ray: &Ray, kernel: Kernel) -> (Option<Hit>, u32) {
+        RayQueries::cast_ray_visits(self, ray, kernel)
     }
     fn occluded_with(&self, ray: &Ray, kernel: Kernel) -> bool {
         RayQueries::occluded_with(self, ray, kernel)

@@ -68,6 +68,36 @@ const NO_TRIANGLE: u32 = u32::MAX;
 pub trait Visitor {
     /// Called for each hit of ray `ray` with `hit.t <= *tmax`.
     fn visit(&mut self, ray: u32, hit: Hit, tmax: &mut f32);
+
+    /// Called each time the one-ray walk of ray `ray` enters a node (a tree node or leaf, a
+    /// grid cell): the hook behind [`crate::RayQueries::cast_ray_visits`], which draws where a
+    /// structure spends its time. The default does nothing, and the built-in queries keep it,
+    /// so it compiles to nothing in them. The stream engines call it only for the subtrees
+    /// they finish one ray at a time.
+    #[inline(always)]
+    fn enter_node(&mut self, ray: u32) {
+        let _ = ray;
+    }
+}
+
+/// [`Closest`] that also counts the nodes the walk enters (see [`Visitor::enter_node`]).
+pub struct CountingClosest<'a> {
+    /// The closest-hit visitor doing the work.
+    pub closest: Closest<'a>,
+    /// Nodes entered so far.
+    pub nodes: u32,
+}
+
+impl Visitor for CountingClosest<'_> {
+    #[inline(always)]
+    fn visit(&mut self, ray: u32, hit: Hit, tmax: &mut f32) {
+        self.closest.visit(ray, hit, tmax);
+    }
+
+    #[inline(always)]
+    fn enter_node(&mut self, _: u32) {
+        self.nodes = self.nodes.saturating_add(1);
+    }
 }
 
 /// The value of `tmax` that ends a ray (see [`Visitor`]).

@@ -53,6 +53,11 @@ impl<V: Visitor> Visitor for ToOriginal<'_, V> {
         let triangle = self.to_original[hit.triangle as usize];
         self.inner.visit(ray, Hit { triangle, ..hit }, tmax);
     }
+
+    #[inline(always)]
+    fn enter_node(&mut self, ray: u32) {
+        self.inner.enter_node(ray);
+    }
 }
 
 impl<A: Accel> Accel for Permuted<A> {

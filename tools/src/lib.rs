@@ -1,7 +1,7 @@
 //! # raybatch-tools
 //!
 //! What surrounds the `raybatch` library without being part of it: the built-in benchmark scenes
-//! and ray sets ([`scenes`]), shared by the `raybatch` command (`bench`, `query`), the criterion
+//! and ray sets ([`scenes`]), the binary ray and hit files of the command line ([`formats`]), shared by the `raybatch` command (`bench`, `query`), the criterion
 //! benchmarks, the examples and the peer comparison (`peers/`). A game that links `raybatch`
 //! never compiles any of this. [`judge`] is the `f64` reference that scores how wrong a mode's
 //! answers are.
@@ -11,6 +11,7 @@
 #![warn(missing_docs)]
 #![deny(unsafe_code)]
 
+pub mod formats;
 pub mod judge;
 pub mod report;
 pub mod scenes;

@@ -419,9 +419,25 @@ fn bad_flags_are_usage_errors() {
     let dir = TempDir::new("flags");
     let (mesh, rays) = write_inputs(&dir, &test_rays());
     assert_fails(&dir, &mesh, &rays, &["--kind", "nearest"], 2, "--kind");
-    assert_fails(&dir, &mesh, &rays, &[], 2, "missing --kind");
+    assert_fails(&dir, &mesh, &rays, &[], 2, "--kind <KIND>");
     let unknown = ["--kind", "any", "--fast"];
-    assert_fails(&dir, &mesh, &rays, &unknown, 2, "unknown flag '--fast'");
+    assert_fails(
+        &dir,
+        &mesh,
+        &rays,
+        &unknown,
+        2,
+        "unexpected argument '--fast'",
+    );
+    let twice = ["--kind", "any", "--leaf", "2", "--leaf", "3"];
+    assert_fails(
+        &dir,
+        &mesh,
+        &rays,
+        &twice,
+        2,
+        "cannot be used multiple times",
+    );
     assert_fails(
         &dir,
         &mesh,
@@ -437,7 +453,20 @@ fn bad_flags_are_usage_errors() {
     assert_eq!(output.status.code(), Some(2));
     let help = raybatch(&["--help"]);
     assert!(help.status.success());
-    assert!(String::from_utf8_lossy(&help.stdout).contains("raybatch query --mesh MESH.obj"));
+    let text = String::from_utf8_lossy(&help.stdout);
+    for command in ["bench", "query", "rays", "render"] {
+        assert!(text.contains(command), "{text}");
+    }
+    // Each command has its own help, listing every structure for --tree.
+    let help = raybatch(&["query", "--help"]);
+    assert!(help.status.success());
+    let text = String::from_utf8_lossy(&help.stdout);
+    assert!(text.contains("--mesh <MESH.obj>"), "{text}");
+    for kind in raybatch::AccelKind::ALL {
+        assert!(text.contains(kind.name()), "{text}");
+    }
+    let help = raybatch(&["bench", "--help"]);
+    assert!(String::from_utf8_lossy(&help.stdout).contains("--trees <LIST>"));
 }
 
 /// The Markdown tables of `text`: runs of lines starting with `| `.
@@ -506,7 +535,6 @@ fn quick_bench_prints_the_tables_and_writes_the_report() {
     assert_eq!(tables[3].len(), 2 + 9 * 5, "{out}");
     assert!(tables[3][2].starts_with("| bvh4 watertight "), "{out}");
     assert_eq!(tables[4].len(), 2 + 3 * 9, "{out}");
-    assert!(stderr(&output).contains("bunny: aabb/pns: building"));
     let report = target.0.join("raybatch-report");
     let csv = std::fs::read_to_string(report.join("report.csv")).expect("report.csv written");
     assert!(csv.starts_with("machine,commit,date,section,"), "{csv}");
@@ -531,4 +559,305 @@ fn quick_bench_prints_the_tables_and_writes_the_report() {
             "no {chart}.svg"
         );
     }
+    // Progress bars are drawn only on a terminal: a pipe gets nothing.
+    assert_eq!(stderr(&output), "");
+}
+
+/// `--trees` and `--scenes` select a slice of the bench: only the named structures' rows.
+#[test]
+fn bench_filters_select_trees() {
+    let args = [
+        "bench", "--quick", "--scenes", "bunny", "--trees", "kd,bvh4", "--rays", "500",
+    ];
+    let output = raybatch(&args);
+    let out = String::from_utf8_lossy(&output.stdout);
+    assert!(output.status.success(), "{}", stderr(&output));
+    let tables = tables(&out);
+    // The main table and per-ray vs batched (the sweep needs the default tree, bvh4: present).
+    let main = &tables[0];
+    assert_eq!(main.len(), 2 + 2, "{out}");
+    assert!(
+        main[2].starts_with("| bvh4 ") && main[3].starts_with("| kd "),
+        "{out}"
+    );
+    assert!(!out.contains("Zero memory"), "{out}");
+    let bad = raybatch(&["bench", "--trees", "octree"]);
+    assert_eq!(bad.status.code(), Some(2));
+    let both = raybatch(&["bench", "--mesh", "x.obj", "--scenes", "bunny"]);
+    assert_eq!(both.status.code(), Some(2));
+}
+
+/// `--threads` is capped at 4 per core (it used to start any number, and 20,000 aborted the
+/// process after minutes): a usage error naming the limit, before any work.
+#[test]
+fn threads_are_capped() {
+    let dir = TempDir::new("threads");
+    let (mesh, rays) = write_inputs(&dir, &test_rays());
+    let cores = std::thread::available_parallelism().map_or(1, usize::from);
+    let max = (4 * cores).to_string();
+    let over = (4 * cores + 1).to_string();
+    let ok = ["--kind", "any", "--batched", "--threads", &max];
+    query_ok(&dir, &mesh, &rays, &ok);
+    let too_many = ["--kind", "any", "--threads", &over];
+    assert_fails(
+        &dir,
+        &mesh,
+        &rays,
+        &too_many,
+        2,
+        &format!("more than {max}"),
+    );
+    assert_fails(
+        &dir,
+        &mesh,
+        &rays,
+        &["--kind", "any", "--threads", "20000"],
+        2,
+        "per core",
+    );
+}
+
+/// `--out` never destroys an input: the same file by its own path, through a symbolic link
+/// or a hard link is refused before anything is written.
+#[test]
+fn output_equal_to_an_input_is_refused() {
+    let dir = TempDir::new("same-file");
+    let (mesh, rays) = write_inputs(&dir, &test_rays());
+    let before = std::fs::read(&rays).unwrap();
+    let hard = dir.path("hard.bin");
+    std::fs::hard_link(&rays, &hard).unwrap();
+    let soft = dir.path("soft.bin");
+    std::os::unix::fs::symlink(&rays, &soft).unwrap();
+    let dotted = dir.0.join(".").join("rays.bin");
+    for out in [&rays, &hard, &soft, &dotted, &mesh] {
+        let args = ["--kind", "closest"];
+        let output = query(&mesh, &rays, out, &args);
+        assert_eq!(
+            output.status.code(),
+            Some(2),
+            "{out:?}: {}",
+            stderr(&output)
+        );
+        assert!(
+            stderr(&output).contains("the same file as the input"),
+            "{}",
+            stderr(&output)
+        );
+    }
+    assert_eq!(std::fs::read(&rays).unwrap(), before);
+    assert!(
+        std::fs::symlink_metadata(&soft)
+            .unwrap()
+            .file_type()
+            .is_symlink()
+    );
+    let rays_out = raybatch(&[
+        "rays",
+        "--mesh",
+        mesh.to_str().unwrap(),
+        "--set",
+        "camera",
+        "--count",
+        "5",
+        "--out",
+        mesh.to_str().unwrap(),
+    ]);
+    assert_eq!(rays_out.status.code(), Some(2), "{}", stderr(&rays_out));
+    assert_eq!(std::fs::read_to_string(&mesh).unwrap(), OBJ);
+}
+
+/// A symbolic link is written through (its target replaced, the link kept); a device is
+/// written into, not replaced by a regular file; `-` is stdout; a directory and a link to
+/// nothing are refused.
+#[test]
+fn output_targets_that_are_not_regular_files() {
+    let dir = TempDir::new("targets");
+    let (mesh, rays) = write_inputs(&dir, &test_rays());
+    let (expected, _) = query_ok(&dir, &mesh, &rays, &["--kind", "closest"]);
+
+    let target = dir.path("target.bin");
+    std::fs::write(&target, b"old").unwrap();
+    let link = dir.path("link.bin");
+    std::os::unix::fs::symlink(&target, &link).unwrap();
+    let output = query(&mesh, &rays, &link, &["--kind", "closest"]);
+    assert!(output.status.success(), "{}", stderr(&output));
+    assert!(
+        std::fs::symlink_metadata(&link)
+            .unwrap()
+            .file_type()
+            .is_symlink()
+    );
+    assert!(std::fs::read(&target).unwrap() == expected);
+
+    let null = Path::new("/dev/null");
+    let output = query(&mesh, &rays, null, &["--kind", "closest"]);
+    assert!(output.status.success(), "{}", stderr(&output));
+    use std::os::unix::fs::FileTypeExt;
+    assert!(
+        std::fs::metadata(null)
+            .unwrap()
+            .file_type()
+            .is_char_device()
+    );
+
+    let output = query(&mesh, &rays, Path::new("-"), &["--kind", "closest"]);
+    assert!(output.status.success(), "{}", stderr(&output));
+    assert!(output.stdout == expected, "stdout holds the answers");
+
+    let dangling = dir.path("dangling.bin");
+    std::os::unix::fs::symlink(dir.path("nothing"), &dangling).unwrap();
+    for (out, says) in [(&dangling, "link to nothing"), (&dir.0, "a directory")] {
+        let output = query(&mesh, &rays, out, &["--kind", "closest"]);
+        assert_eq!(output.status.code(), Some(2), "{}", stderr(&output));
+        assert!(stderr(&output).contains(says), "{}", stderr(&output));
+    }
+}
+
+/// Files that are not OBJ meshes fail with a clear message instead of loading as an empty
+/// mesh that every ray misses.
+#[test]
+fn files_that_are_not_obj_are_refused() {
+    let dir = TempDir::new("not-obj");
+    let (_, rays) = write_inputs(&dir, &test_rays());
+    let stl = "solid cube\n  facet normal 0 0 1\n    outer loop\n      vertex 0 0 1\n      \
+               vertex 1 0 1\n      vertex 0 1 1\n    endloop\n  endfacet\nendsolid cube\n";
+    let ply = "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n\
+               property float z\nelement face 1\nproperty list uchar int vertex_indices\n\
+               end_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n";
+    let readme = "# raybatch\n\nBatches of ray queries against triangle meshes.\n";
+    let random: String = (0..500u32)
+        .map(|i| char::from(b'!' + (i * 37 % 90) as u8))
+        .collect();
+    let vertices_only = "v 0 0 0\nv 1 0 0\nv 0 1 0\n";
+    for (name, text) in [
+        ("cube.stl", stl),
+        ("cube.ply", ply),
+        ("README.md", readme),
+        ("random.txt", random.as_str()),
+        ("points.obj", vertices_only),
+    ] {
+        let path = dir.path(name);
+        std::fs::write(&path, text).unwrap();
+        let says = "no faces found (is this an OBJ file?)";
+        assert_fails(&dir, &path, &rays, &["--kind", "closest"], 1, says);
+    }
+    // Binary STL: an 80-byte header, then binary records: not text, the line is named.
+    let mut binary = vec![b' '; 80];
+    binary.extend_from_slice(&1u32.to_le_bytes());
+    binary.extend((0..50).map(|i| 0x80 + i as u8));
+    let path = dir.path("binary.stl");
+    std::fs::write(&path, binary).unwrap();
+    assert_fails(
+        &dir,
+        &path,
+        &rays,
+        &["--kind", "closest"],
+        1,
+        "line 1: not UTF-8",
+    );
+}
+
+/// Old Mac `\r` line endings are lines; a non-UTF-8 byte in a comment is accepted, elsewhere
+/// the error names its line.
+#[test]
+fn obj_line_endings_and_bytes() {
+    let dir = TempDir::new("endings");
+    let rays = test_rays();
+    let (mesh, rays_path) = write_inputs(&dir, &rays);
+    let (expected, _) = query_ok(&dir, &mesh, &rays_path, &["--kind", "closest"]);
+    let mac = dir.path("mac.obj");
+    std::fs::write(&mac, OBJ.replace('\n', "\r")).unwrap();
+    let (bytes, _) = query_ok(&dir, &mac, &rays_path, &["--kind", "closest"]);
+    assert!(bytes == expected, "a \\r-only file is the same mesh");
+
+    let mut latin1 = b"# auteur: Ren\xe9\n".to_vec();
+    latin1.extend_from_slice(OBJ.as_bytes());
+    let commented = dir.path("latin1.obj");
+    std::fs::write(&commented, &latin1).unwrap();
+    let (bytes, _) = query_ok(&dir, &commented, &rays_path, &["--kind", "closest"]);
+    assert!(bytes == expected, "a comment may hold any bytes");
+
+    latin1.extend_from_slice(b"g caf\xe9\n");
+    let bad = dir.path("bad.obj");
+    std::fs::write(&bad, &latin1).unwrap();
+    let lines = OBJ.lines().count() + 2;
+    let says = format!("line {lines}: not UTF-8");
+    assert_fails(&dir, &bad, &rays_path, &["--kind", "closest"], 1, &says);
+}
+
+/// The PNG's width, height and RGB bytes (decoded with the png crate).
+fn decode_png(bytes: &[u8]) -> (u32, u32, Vec<u8>) {
+    let decoder = png::Decoder::new(std::io::Cursor::new(bytes));
+    let mut reader = decoder.read_info().expect("a PNG");
+    let mut rgb = vec![0; reader.output_buffer_size().unwrap()];
+    let info = reader.next_frame(&mut rgb).expect("one frame");
+    assert_eq!(info.color_type, png::ColorType::Rgb);
+    rgb.truncate(info.buffer_size());
+    (info.width, info.height, rgb)
+}
+
+/// `render` draws the mesh: the quad seen from above covers the middle of the image and not
+/// its corners; per-ray and batched images are the same; the heat map marks every pixel whose
+/// ray entered the structure.
+#[test]
+fn render_draws_the_mesh() {
+    let dir = TempDir::new("render");
+    let (mesh, _) = write_inputs(&dir, &[]);
+    let mesh_arg = mesh.to_str().unwrap();
+    let render = |extra: &[&str]| {
+        let out = dir.path("image.png");
+        let args = [
+            "render",
+            "--mesh",
+            mesh_arg,
+            "--out",
+            out.to_str().unwrap(),
+            "--width",
+            "40",
+            "--height",
+            "30",
+            "--view",
+            "0,0,1",
+        ];
+        let output = raybatch(&[&args[..], extra].concat());
+        assert!(output.status.success(), "{extra:?}: {}", stderr(&output));
+        decode_png(&std::fs::read(&out).unwrap())
+    };
+    let (w, h, normal) = render(&[]);
+    assert_eq!((w, h, normal.len()), (40, 30, 40 * 30 * 3));
+    let pixel = |img: &[u8], x: usize, y: usize| img[3 * (y * 40 + x)..][..3].to_vec();
+    let background = pixel(&normal, 0, 0);
+    assert_ne!(
+        pixel(&normal, 20, 15),
+        background,
+        "the mesh is in the middle"
+    );
+    for kind in raybatch::AccelKind::ALL.map(|k| k.name()) {
+        let (_, _, batched) = render(&["--batched", "--tree", kind]);
+        assert!(batched == normal, "{kind}: batched image differs");
+        let (_, _, heat) = render(&["--shade", "heat", "--tree", kind]);
+        assert_ne!(
+            pixel(&heat, 20, 15),
+            [0, 0, 0],
+            "{kind}: the walk entered nodes"
+        );
+    }
+    let (_, _, depth) = render(&["--shade", "depth"]);
+    assert_ne!(pixel(&depth, 20, 15), pixel(&depth, 0, 0));
+    let heat_batched = raybatch(&[
+        "render",
+        "--mesh",
+        mesh_arg,
+        "--out",
+        "x.png",
+        "--shade",
+        "heat",
+        "--batched",
+    ]);
+    assert_eq!(
+        heat_batched.status.code(),
+        Some(2),
+        "{}",
+        stderr(&heat_batched)
+    );
 }

@@ -220,6 +220,7 @@ impl Accel for SpatialHash {
         }
         mailbox.next_ray();
         walk(&self.planes, ray, &mut tmax, |cell, tmax| {
+            visitor.enter_node(id);
             if !self.coarse.may_hold(cell) {
                 return;
             }

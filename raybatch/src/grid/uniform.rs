@@ -137,6 +137,7 @@ impl Accel for UniformGrid {
         }
         mailbox.next_ray();
         walk(&self.planes, ray, &mut tmax, |cell, tmax| {
+            visitor.enter_node(id);
             let refs = self.cells.cell(cell);
             test_cell::<K, V>(&self.mesh, refs, ray, id, mailbox, tmax, visitor);
         });

@@ -143,6 +143,7 @@ pub(crate) fn trace<K: TriangleTest, V: Visitor>(
     stack.clear();
     let (mut node, mut span) = (0u32, root);
     loop {
+        visitor.enter_node(id);
         match tree.nodes[node as usize].decode() {
             Decoded::Split {
                 axis,

@@ -146,14 +146,21 @@ impl Mesh {
         Self::new(vertices, triangles)
     }
 
+    /// [`Mesh::from_obj_str`] on the file's bytes: comments may hold any bytes, the rest must
+    /// be UTF-8 (see [`obj`]).
+    pub fn from_obj_bytes(bytes: &[u8]) -> Result<Self, MeshError> {
+        let (vertices, triangles) = obj::parse_obj_bytes(bytes)?;
+        Self::new(vertices, triangles)
+    }
+
     /// Reads and parses an OBJ file.
     pub fn load_obj(path: impl AsRef<Path>) -> Result<Self, MeshError> {
         let path = path.as_ref();
-        let text = std::fs::read_to_string(path).map_err(|e| MeshError::Io {
+        let bytes = std::fs::read(path).map_err(|e| MeshError::Io {
             path: path.display().to_string(),
             message: e.to_string(),
         })?;
-        Self::from_obj_str(&text)
+        Self::from_obj_bytes(&bytes)
     }
 
     /// The vertex positions.

@@ -4,8 +4,11 @@
 //! `f` faces whose vertices are written `i`, `i/t`, `i//n` or `i/t/n`; only the
 //! position index is used. Indices are 1-based, negative indices are relative to
 //! the vertices declared so far. Comments (`#`, also after data), blank lines,
-//! CRLF endings, a leading UTF-8 BOM and every other statement (`vt`, `vn`, `g`,
-//! `usemtl`, ...) are accepted and ignored.
+//! a leading UTF-8 BOM and every other statement (`vt`, `vn`, `g`, `usemtl`, ...)
+//! are accepted and ignored. Lines end with `\n`, `\r\n` or a lone `\r` (old Mac
+//! files), each counted as one line. The input is bytes: a comment may hold any
+//! bytes (exporters write file names and author names in Latin-1), while the rest
+//! of a line must be UTF-8, else the error names the line.
 //!
 //! Triangle order guarantee: polygons are fan-triangulated as `(v0,v1,v2)`,
 //! `(v0,v2,v3)`, ... and triangles are emitted in file order. The position of a
@@ -49,6 +52,8 @@ pub enum ObjErrorKind {
     },
     /// The file declares more than `u32::MAX` vertices.
     TooManyVertices,
+    /// The line (outside a comment) is not valid UTF-8: most likely not a text file.
+    NotUtf8,
 }
 
 impl fmt::Display for ObjError {
@@ -79,6 +84,7 @@ impl fmt::Display for ObjError {
             ObjErrorKind::TooManyVertices => {
                 write!(f, "more than {} vertices", u32::MAX)
             }
+            ObjErrorKind::NotUtf8 => write!(f, "not UTF-8 text (is this an OBJ file?)"),
         }
     }
 }
@@ -92,29 +98,61 @@ impl std::error::Error for ObjError {}
 /// documentation. Never panics; malformed input yields an [`ObjError`] carrying
 /// the 1-based line number.
 pub fn parse_obj(text: &str) -> Result<(Vec<Vec3>, Vec<[u32; 3]>), ObjError> {
+    parse_obj_bytes(text.as_bytes())
+}
+
+/// [`parse_obj`] on the file's bytes: comments may hold bytes that are not UTF-8 (see the
+/// module documentation).
+pub fn parse_obj_bytes(bytes: &[u8]) -> Result<(Vec<Vec3>, Vec<[u32; 3]>), ObjError> {
     // Indices are u32, so vertex ids 0..=u32::MAX are addressable.
-    parse_obj_with_limit(text, u32::MAX as usize + 1)
+    parse_obj_with_limit(bytes, u32::MAX as usize + 1)
+}
+
+/// The lines of `bytes`, ended by `\n`, `\r\n` or a lone `\r` (the ending not included).
+fn lines(bytes: &[u8]) -> impl Iterator<Item = &[u8]> {
+    let mut rest = Some(bytes);
+    std::iter::from_fn(move || {
+        let text = rest?;
+        match text.iter().position(|&b| b == b'\n' || b == b'\r') {
+            None => {
+                rest = None;
+                // A final line without an ending (none at all for an empty tail).
+                (!text.is_empty()).then_some(text)
+            }
+            Some(end) => {
+                let skip = if text[end..].starts_with(b"\r\n") {
+                    2
+                } else {
+                    1
+                };
+                rest = Some(&text[end + skip..]);
+                Some(&text[..end])
+            }
+        }
+    })
 }
 
 /// [`parse_obj`] with a configurable vertex limit (so the limit is testable).
 fn parse_obj_with_limit(
-    text: &str,
+    bytes: &[u8],
     max_vertices: usize,
 ) -> Result<(Vec<Vec3>, Vec<[u32; 3]>), ObjError> {
-    let text = text.strip_prefix('\u{feff}').unwrap_or(text);
+    let bytes = bytes.strip_prefix("\u{feff}".as_bytes()).unwrap_or(bytes);
     let mut positions: Vec<Vec3> = Vec::new();
     let mut triangles: Vec<[u32; 3]> = Vec::new();
     // Reused per face to avoid an allocation per polygon.
     let mut poly: Vec<u32> = Vec::with_capacity(8);
 
-    for (line_idx, raw_line) in text.lines().enumerate() {
+    for (line_idx, raw_line) in lines(bytes).enumerate() {
         let line_no = line_idx + 1;
         let err = |kind| ObjError {
             line: line_no,
             kind,
         };
-        // Strip trailing comment; `split` always yields at least one piece.
-        let line = raw_line.split('#').next().unwrap_or("");
+        // Strip a trailing comment (`#` is ASCII, never part of a longer UTF-8 sequence), then
+        // require text.
+        let data = raw_line.split(|&b| b == b'#').next().unwrap_or(&[]);
+        let line = std::str::from_utf8(data).map_err(|_| err(ObjErrorKind::NotUtf8))?;
         let mut tokens = line.split_ascii_whitespace();
         match tokens.next() {
             Some("v") => {
@@ -259,6 +297,32 @@ mod tests {
     }
 
     #[test]
+    fn old_mac_line_endings_are_lines() {
+        let (v, t) = ok("v 0 0 0\rv 1 0 0\r\rv 0 1 0\rf 1 2 3\r");
+        assert_eq!((v.len(), t), (3, vec![[0, 1, 2]]));
+        // Mixed endings: `\r\n` is one ending, a lone `\r` another; line numbers follow.
+        let e = err_of("v 0 0 0\r\nv 1 0 0\rv 0 1 0\nf 1 2 9\r\n");
+        assert_eq!(e.line, 4);
+        let e = err_of("v 0 0 0\r\rf 1 2 3");
+        assert_eq!(e.line, 3);
+    }
+
+    #[test]
+    fn bytes_outside_utf8_are_accepted_in_comments_only() {
+        let mut file =
+            b"# made by Ren\xe9\nv 0 0 0\nv 1 0 0 # \xff\xfe\nv 0 1 0\nf 1 2 3\n".to_vec();
+        let (v, t) = parse_obj_bytes(&file).expect("comments may hold any bytes");
+        assert_eq!((v.len(), t.len()), (3, 1));
+        file.extend_from_slice(b"g caf\xe9\n");
+        let e = parse_obj_bytes(&file).unwrap_err();
+        assert_eq!((e.line, &e.kind), (6, &ObjErrorKind::NotUtf8));
+        assert_eq!(
+            e.to_string(),
+            "line 6: not UTF-8 text (is this an OBJ file?)"
+        );
+    }
+
+    #[test]
     fn empty_and_comment_only_files() {
         for text in ["", "\n\n", "# nothing\r\n", "   \t"] {
             let (v, t) = ok(text);
@@ -395,7 +459,7 @@ mod tests {
 
     #[test]
     fn too_many_vertices() {
-        let e = parse_obj_with_limit("v 0 0 0\nv 1 0 0\n\nv 0 1 0\n", 2).unwrap_err();
+        let e = parse_obj_with_limit(b"v 0 0 0\nv 1 0 0\n\nv 0 1 0\n", 2).unwrap_err();
         assert_eq!(
             e,
             ObjError {
@@ -404,7 +468,7 @@ mod tests {
             }
         );
         assert_eq!(e.to_string(), "line 4: more than 4294967295 vertices");
-        assert!(parse_obj_with_limit("v 0 0 0\nv 1 0 0\n", 2).is_ok());
+        assert!(parse_obj_with_limit(b"v 0 0 0\nv 1 0 0\n", 2).is_ok());
     }
 
     #[test]

@@ -6,7 +6,7 @@
 
 use crate::accel::Accel;
 use crate::geom::{Kernel, KernelTask, PreparedRay, Ray, TriangleTest};
-use crate::hit::{Any, Closest, EachHit, Hit, Visitor};
+use crate::hit::{Any, Closest, CountingClosest, EachHit, Hit, Visitor};
 use crate::workspace::Workspace;
 
 /// Runs `visitor` over every hit of `ray` (prepared) with `kernel`, as ray number 0.
@@ -61,6 +61,23 @@ pub trait RayQueries: Accel {
         let mut best = [Hit::none_before(prepared.tmax)];
         trace_one(self, &prepared, kernel, &mut Closest { best: &mut best });
         best[0].found()
+    }
+
+    /// [`RayQueries::cast_ray_with`], and how many nodes (leaves included; cells for the
+    /// grids) the one-ray walk entered: the cost of the ray, for heat maps (see
+    /// [`Visitor::enter_node`]). An invalid ray misses having entered none.
+    fn cast_ray_visits(&self, ray: &Ray, kernel: Kernel) -> (Option<Hit>, u32) {
+        let Some(prepared) = PreparedRay::new(ray) else {
+            return (None, 0);
+        };
+        let mut best = [Hit::none_before(prepared.tmax)];
+        let mut counting = CountingClosest {
+            closest: Closest { best: &mut best },
+            nodes: 0,
+        };
+        trace_one(self, &prepared, kernel, &mut counting);
+        let nodes = counting.nodes;
+        (best[0].found(), nodes)
     }
 
     /// True if the ray hits anything in `[tmin, tmax]` (line of sight is `!occluded` of a

@@ -50,6 +50,12 @@ impl<V: Visitor> Visitor for ToGlobal<'_, V> {
         let triangle = self.first + hit.triangle;
         self.inner.visit(ray, Hit { triangle, ..hit }, tmax);
     }
+
+    #[inline(always)]
+    fn enter_node(&mut self, ray: u32) {
+        let ray = self.outer.map_or(ray, |outer| outer[ray as usize].1);
+        self.inner.enter_node(ray);
+    }
 }
 
 /// True if an instance on layers `layers` is seen by a query on layers `mask`.
@@ -93,6 +99,7 @@ fn trace_one<A: SceneMesh, K: TriangleTest, V: Visitor>(
         if !seen(node.mask, mask) || !grown(&node.bounds, pad).hit_by(ray, tmax) {
             continue;
         }
+        visitor.enter_node(id);
         if node.is_leaf() {
             for slot in node.first..node.first + node.count {
                 let instance = &scene.instances[scene.top.order[slot as usize] as usize];

@@ -66,6 +66,7 @@ pub(crate) fn trace_below<B, K, V>(
     stack.reserve(tree.depth() + 1);
     let (mut index, mut node_box) = start;
     loop {
+        visitor.enter_node(id);
         let node = tree.node(index);
         if test_node_triangles::<B, K, V>(tree, &node, ray, id, tmax, visitor) {
             return;

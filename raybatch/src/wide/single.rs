@@ -68,6 +68,7 @@ pub(crate) fn step<K: TriangleTest, V: Visitor>(
     stack: &mut Stack,
     visitor: &mut V,
 ) -> Option<u32> {
+    visitor.enter_node(id);
     if leaf_word::is_leaf(item) {
         let (first, count) = leaf_word::unpack(item);
         let triangles = (first..first + count).map(|slot| tree.triangle(slot));

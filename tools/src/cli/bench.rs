@@ -28,6 +28,7 @@ use crate::compare::{self, BatchedRow, Subject};
 use crate::error::CliError;
 use crate::inputs::load_mesh;
 use crate::measure::time_ms;
+use crate::progress::{self, Job};
 use crate::runner::{Engine, QueryKind};
 use crate::table::{Align, Table, ratio, thousands};
 use crate::workload::{COLUMNS, PASSES, RaySets, speed};
@@ -57,6 +58,8 @@ struct Plan {
     /// Rays per set for the orderings other than pns.
     variant_rays: usize,
     leaf: u32,
+    /// The structures to measure (`--trees`), in [`AccelKind::ALL`] order.
+    trees: Vec<AccelKind>,
     orderings: &'static [ChildOrdering],
     batch_sizes: &'static [usize],
 }
@@ -76,6 +79,10 @@ impl Plan {
             rays,
             variant_rays: rays.min(VARIANT_RAYS),
             leaf: args.leaf,
+            trees: AccelKind::ALL
+                .into_iter()
+                .filter(|k| args.trees.as_ref().is_none_or(|t| t.contains(k)))
+                .collect(),
             orderings,
             batch_sizes,
         }
@@ -90,6 +97,13 @@ impl Plan {
     /// Whether some ordering runs on fewer rays than pns.
     fn has_variant_rays(&self) -> bool {
         self.variant_rays < self.rays && self.orderings.iter().any(|&o| o != ChildOrdering::Pns)
+    }
+
+    /// The orderings `kind` is measured with: a structure that ignores the ordering is
+    /// measured once, as pns.
+    fn orderings_of(&self, kind: AccelKind) -> impl Iterator<Item = ChildOrdering> + '_ {
+        let orderings = self.orderings.iter().copied();
+        orderings.filter(move |&o| kind.uses_child_ordering() || o == ChildOrdering::Pns)
     }
 }
 
@@ -117,28 +131,31 @@ impl From<Scene> for BenchScene {
 pub fn run(args: &BenchArgs) -> Result<(), CliError> {
     let plan = Plan::from_args(args);
     for scene in load_scenes(args)? {
-        println!("{}", bench_scene(&scene, &plan));
+        let section = bench_scene(&scene, &plan);
+        progress::suspend(|| println!("{section}"));
     }
     let instanced = match &args.scenes {
         None => args.mesh.is_none(),
         Some(names) => names.iter().any(|n| n == crate::scene_bench::NAME),
     };
     if instanced {
-        println!("{}", crate::scene_bench::section(plan.rays));
+        let section = crate::scene_bench::section(plan.rays);
+        progress::suspend(|| println!("{section}"));
     }
     if args.mesh.is_none() {
         let (leaks, records) = crate::modes::leaks(plan.rays.min(crate::modes::LEAK_RAYS));
-        println!("{leaks}");
+        progress::suspend(|| println!("{leaks}"));
         crate::records::push(records);
     }
     let dir = crate::records::report_dir();
     let page = crate::records::write_report(&dir).map_err(|e| {
         CliError::input(format!("cannot write the report to {}: {e}", dir.display()))
     })?;
-    progress(&format!(
-        "report written: {} (and report.csv beside it)",
+    progress::done();
+    println!(
+        "Report: {} (and report.csv beside it)",
         page.display()
-    ));
+    );
     Ok(())
 }
 
@@ -148,7 +165,7 @@ fn load_scenes(args: &BenchArgs) -> Result<Vec<BenchScene>, CliError> {
     }
     let scenes = match &args.scenes {
         None => {
-            progress("generating the built-in scenes ...");
+            progress::step("generating the built-in scenes");
             scenes::builtin()
         }
         Some(names) => names
@@ -162,7 +179,7 @@ fn load_scenes(args: &BenchArgs) -> Result<Vec<BenchScene>, CliError> {
 
 /// The built-in scene called `name` (one of [`SCENE_NAMES`]; the parser checked).
 fn builtin_scene(name: &str) -> Scene {
-    progress(&format!("{name}: generating the scene ..."));
+    progress::step(format!("{name}: generating the scene"));
     match name {
         "bunny" => scenes::bunny(),
         "terrain" => scenes::terrain(scenes::BUILTIN_TERRAIN_CELLS),
@@ -192,10 +209,7 @@ struct SceneRays {
 impl SceneRays {
     fn generate(scene: &BenchScene, plan: &Plan) -> Self {
         let generate = |count| {
-            progress(&format!(
-                "{}: generating {count} rays per set ...",
-                scene.name
-            ));
+            progress::step(format!("{}: generating {count} rays per set", scene.name));
             RaySets::generate(&scene.mesh, scene.kind, count)
         };
         Self {
@@ -254,7 +268,12 @@ impl SceneReport {
         ];
         sections.extend(self.details.iter().cloned());
         // One blank line between sections, whether or not they end in a newline.
-        let sections: Vec<&str> = sections.iter().map(|s| s.trim_end()).collect();
+        // (`--trees` may leave some out: no zero-byte tree, no default tree.)
+        let sections: Vec<&str> = sections
+            .iter()
+            .map(|s| s.trim_end())
+            .filter(|s| !s.is_empty())
+            .collect();
         sections.join("\n\n") + "\n"
     }
 }
@@ -263,9 +282,16 @@ impl SceneReport {
 fn bench_scene(scene: &BenchScene, plan: &Plan) -> String {
     let rays = SceneRays::generate(scene, plan);
     let mut report = SceneReport::default();
-    for kind in AccelKind::ALL {
-        bench_kind(kind, scene, plan, &rays, &mut report);
+    let trees = plan
+        .trees
+        .iter()
+        .map(|&k| plan.orderings_of(k).count())
+        .sum::<usize>();
+    let job = Job::start(&scene.name, trees as u64, "trees");
+    for &kind in &plan.trees {
+        bench_kind(kind, scene, plan, &rays, &mut report, &job);
     }
+    job.finish();
     report.zero_memory = zero_memory(scene, &rays.all, &report.rows);
     let (modes, records) = crate::modes::section(&scene.name, &scene.mesh, &rays.all);
     crate::records::push(records);
@@ -281,11 +307,9 @@ fn bench_kind(
     plan: &Plan,
     rays: &SceneRays,
     report: &mut SceneReport,
+    job: &Job,
 ) {
-    let orderings = plan.orderings.iter().copied();
-    // A structure that ignores the ordering is measured once, as pns.
-    let orderings = orderings.filter(|&o| kind.uses_child_ordering() || o == ChildOrdering::Pns);
-    for ordering in orderings {
+    for ordering in plan.orderings_of(kind) {
         let (row, tree) = bench_tree(kind, scene, plan, ordering, rays.for_ordering(ordering));
         if ordering == ChildOrdering::Pns {
             let subject = Subject {
@@ -302,6 +326,7 @@ fn bench_kind(
         }
         crate::records::push(main_records(&scene.name, &row));
         report.rows.push(row);
+        job.advance();
     }
 }
 
@@ -329,16 +354,21 @@ const BRUTE_FORCE_MIN_RAYS: usize = 100;
 /// beside the mesh) against the zero-byte trees, closest hit on incoherent rays, and what the
 /// zero-byte trees keep beside the mesh.
 fn zero_memory(scene: &BenchScene, rays: &RaySets, rows: &[Row]) -> String {
+    let zero_byte = |r: &&Row| matches!(r.tree, AccelKind::Zbt | AccelKind::ZbtNoCache);
+    if !rows.iter().any(|r| zero_byte(&r)) {
+        // `--trees` left both out.
+        return String::new();
+    }
     let incoherent = rays.get(RaySet::Incoherent);
     let affordable = BRUTE_FORCE_TESTS / scene.mesh.triangle_count().max(1);
     let count = affordable.clamp(BRUTE_FORCE_MIN_RAYS, BRUTE_FORCE_RAYS);
     let sample = &incoherent[..incoherent.len().min(count)];
-    progress(&format!("{}: brute force ...", scene.name));
+    progress::step(format!("{}: brute force", scene.name));
     let brute = brute_force_speed(&scene.mesh, sample);
     let zbt = rows
         .iter()
         .filter(|r| r.ordering == ChildOrdering::Pns)
-        .filter(|r| matches!(r.tree, AccelKind::Zbt | AccelKind::ZbtNoCache))
+        .filter(zero_byte)
         .map(|r| {
             let speed = r.speed_of(QueryKind::Closest, RaySet::Incoherent);
             format!(
@@ -403,14 +433,16 @@ fn bench_tree(
     rays: &RaySets,
 ) -> (Row, AnyAccel) {
     let label = format!("{}: {}/{}", scene.name, kind.name(), ordering.name());
-    progress(&format!("{label}: building ..."));
+    progress::step(format!("{label}: building"));
     let options = plan.options(ordering);
     let (tree, build_ms) = build(kind, &scene.mesh, options.with_parallel(false));
     let (_, parallel_build_ms) = build(kind, &scene.mesh, options);
-    progress(&format!("{label}: querying ..."));
     let mrays = COLUMNS
         .iter()
-        .map(|c| speed(&tree, c.query(Engine::PerRay), rays.get(c.set)))
+        .map(|c| {
+            progress::step(format!("{label}: per-ray {}", c.title()));
+            speed(&tree, c.query(Engine::PerRay), rays.get(c.set))
+        })
         .collect();
     let row = Row {
         tree: kind,
@@ -503,9 +535,4 @@ fn speedup(row: &Row, base: &Row) -> f64 {
         .map(|(a, b)| (a / b).ln())
         .sum();
     (logs / row.mrays.len() as f64).exp()
-}
-
-/// Reports progress on stderr.
-pub fn progress(message: &str) {
-    eprintln!("{message}");
 }

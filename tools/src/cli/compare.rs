@@ -9,7 +9,7 @@
 use raybatch::{AnyAccel, BatchOrdering, Kernel, PartitionKernel, Ray};
 use raybatch_tools::report::{Record, Section};
 
-use crate::bench::progress;
+use crate::progress;
 use crate::runner::{Engine, Query, QueryKind};
 use crate::table::{Align, Table, mrays, ratio, thousands};
 use crate::workload::{COLUMNS, Column, PASSES, RaySets, speed, time_in_batches};
@@ -83,18 +83,20 @@ pub struct Subject<'a> {
 
 impl Subject<'_> {
     fn progress(&self, what: &str) {
-        progress(&format!("{}: {}: {what} ...", self.scene, self.label));
+        progress::step(format!("{}: {}: {what}", self.scene, self.label));
     }
 }
 
 /// Times the batched engine on every column of [`COLUMNS`]; `per_ray` holds the per-ray
 /// speeds of the same tree, one per column.
 pub fn batched_rows(subject: &Subject, per_ray: &[f64], rays: &RaySets) -> Vec<BatchedRow> {
-    subject.progress("batched queries");
     COLUMNS
         .iter()
         .zip(per_ray)
-        .map(|(&column, &per_ray)| batched_row(subject, column, per_ray, rays.get(column.set)))
+        .map(|(&column, &per_ray)| {
+            subject.progress(&format!("batched {}", column.title()));
+            batched_row(subject, column, per_ray, rays.get(column.set))
+        })
         .collect()
 }
 

@@ -27,7 +27,7 @@ use raybatch_tools::report::{Record, Section};
 use raybatch_tools::scenes::RaySet;
 use raybatch_tools::scenes::closed::{aimed_rays, closed_meshes};
 
-use crate::bench::progress;
+use crate::progress;
 use crate::runner::{Engine, Query, QueryKind, QueryRunner};
 use crate::table::{Align, Table, thousands};
 use crate::workload::{PASSES, RaySets, speed};
@@ -147,10 +147,7 @@ pub fn section(scene: &str, mesh: &Arc<Mesh>, rays: &RaySets) -> (String, Vec<Re
         .collect();
     let triangles = mesh.triangle_count().max(1) as f64;
     for m in &MODES {
-        progress(&format!(
-            "{scene}: mode {}: building and measuring ...",
-            m.name
-        ));
+        progress::step(format!("{scene}: mode {}: building and measuring", m.name));
         let built = build(m, mesh);
         for (set, sample, truth) in &judged {
             let all = rays.get(*set);
@@ -248,7 +245,7 @@ pub fn leaks(count: usize) -> (String, Vec<Record>) {
         table.column(title, Align::Right);
     }
     for closed in closed_meshes() {
-        progress(&format!("leaks: {} ...", closed.name));
+        progress::step(format!("leaks: {}", closed.name));
         let mesh = Arc::new(closed.mesh.clone());
         let rays = aimed_rays(&closed, count, 7);
         let judge = Reference::new(&mesh);

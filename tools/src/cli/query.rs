@@ -1,7 +1,8 @@
 //! `raybatch query`: answers a file of rays against an OBJ mesh and writes the answers to a file.
 //!
-//! Every input is read and checked, the tree built and every ray answered before the output is
-//! touched; the output is then written all or nothing ([`write_atomically`]). Statistics go to
+//! `--out` is checked first ([`Output::plan`]: never an input, never a directory); every input
+//! is then read and checked, the tree built and every ray answered before the output is
+//! touched, and the output is written all or nothing where the target allows it. Statistics go to
 //! stderr as one JSON line, naming the engine (`per-ray` or `batched`) and the thread count.
 //!
 //! `--batched` answers through the batched engine (by-octant ordering, the CPU's fastest
@@ -9,23 +10,22 @@
 //! pool of `N` threads (see [`crate::runner`]); `--passes N` times N passes after a warm-up
 //! and reports their median. Every combination writes the same bytes.
 
-use std::path::Path;
-
-use raybatch::{BatchOrdering, BuildOptions, Mesh, Ray};
+use raybatch::{AnyAccel, BatchOrdering, BuildOptions, Ray};
+use raybatch_tools::formats::{write_closest, write_occluded};
 
 use crate::args::QueryArgs;
-use crate::atomic::write_atomically;
 use crate::error::CliError;
-use crate::formats::{encode_closest, encode_occluded};
 use crate::inputs::{load_mesh, read_rays};
 use crate::json::JsonLine;
 use crate::measure::{Measurement, measure, measure_passes, time_ms};
+use crate::output::Output;
+use crate::progress;
 use crate::runner::{Engine, Query, QueryKind, QueryRunner};
 
 /// What answering the rays produced.
-struct Answers {
-    /// The output file's contents.
-    bytes: Vec<u8>,
+struct Answers<'t> {
+    /// The runner, holding the answers of the last pass.
+    runner: QueryRunner<'t>,
     build_ms: f64,
     /// The median pass with `--passes`, else the one pass.
     query: Measurement,
@@ -37,42 +37,39 @@ struct Answers {
 
 /// Runs the command.
 pub fn run(args: &QueryArgs) -> Result<(), CliError> {
-    check_output_path(&args.out)?;
+    let output = Output::plan(&args.out, &[&args.mesh, &args.rays])?;
+    progress::step(format!("loading {}", args.mesh.display()));
     let mesh = load_mesh(&args.mesh)?;
     let triangles = mesh.triangle_count();
+    progress::step(format!("reading {}", args.rays.display()));
     let rays = read_rays(&args.rays)?;
-    let answers = answer(mesh, &rays, args)?;
-    write_atomically(&args.out, &answers.bytes)
-        .map_err(|e| CliError::input(format!("cannot write {}: {e}", args.out.display())))?;
-    eprintln!("{}", report(args, triangles, &answers).render());
-    Ok(())
-}
-
-/// Fails early, before any work, if `out` cannot be a file in an existing directory.
-fn check_output_path(out: &Path) -> Result<(), CliError> {
-    let cannot = |why: String| CliError::input(format!("cannot write {}: {why}", out.display()));
-    if out.file_name().is_none() || out.is_dir() {
-        return Err(cannot("it is a directory".to_string()));
-    }
-    let dir = match out.parent() {
-        Some(d) if !d.as_os_str().is_empty() => d,
-        _ => Path::new("."),
-    };
-    if !dir.is_dir() {
-        return Err(cannot(format!("{} is not a directory", dir.display())));
-    }
-    Ok(())
-}
-
-/// Builds the structure `--tree` names and answers every ray.
-fn answer(mesh: Mesh, rays: &[Ray], args: &QueryArgs) -> Result<Answers, CliError> {
+    progress::step(format!("building {}", args.tree.name()));
     let options = BuildOptions::default()
         .with_leaf_size(args.leaf)
         .with_leaf_corners(args.leaf_corners);
     let (tree, build_ms) = time_ms(|| args.tree.build(mesh, &options));
     let tree = tree.map_err(|e| CliError::input(format!("{}: {e}", args.mesh.display())))?;
+    progress::step(format!("answering {} rays", rays.len()));
+    let answers = answer(&tree, build_ms, &rays, args)?;
+    progress::step("writing the answers");
+    output.write(|out| match args.kind {
+        QueryKind::Closest => write_closest(out, answers.runner.closest()),
+        QueryKind::Any => write_occluded(out, answers.runner.occluded()),
+    })?;
+    progress::done();
+    eprintln!("{}", report(args, triangles, &answers).render());
+    Ok(())
+}
+
+/// Answers every ray with `tree`, timing as `--passes` asks.
+fn answer<'t>(
+    tree: &'t AnyAccel,
+    build_ms: f64,
+    rays: &[Ray],
+    args: &QueryArgs,
+) -> Result<Answers<'t>, CliError> {
     let query = query_for(args);
-    let mut runner = QueryRunner::new(&tree, query, rays.len()).map_err(|e| {
+    let mut runner = QueryRunner::new(tree, query, rays.len()).map_err(|e| {
         CliError::input(format!(
             "cannot start {} threads: {e}",
             query.thread_count()
@@ -85,12 +82,8 @@ fn answer(mesh: Mesh, rays: &[Ray], args: &QueryArgs) -> Result<Answers, CliErro
         }
         None => (measure(rays, 1, |chunk| runner.run(chunk)), Vec::new()),
     };
-    let bytes = match args.kind {
-        QueryKind::Closest => encode_closest(runner.closest()),
-        QueryKind::Any => encode_occluded(runner.occluded()),
-    };
     Ok(Answers {
-        bytes,
+        runner,
         build_ms,
         query: measurement,
         passes,

@@ -32,17 +32,14 @@ pub enum QueryKind {
 }
 
 impl QueryKind {
+    /// Both kinds, in the order the help lists them.
+    pub const ALL: [QueryKind; 2] = [QueryKind::Closest, QueryKind::Any];
+
     pub fn name(self) -> &'static str {
         match self {
             QueryKind::Closest => "closest",
             QueryKind::Any => "any",
         }
-    }
-
-    pub fn from_name(name: &str) -> Option<Self> {
-        [QueryKind::Closest, QueryKind::Any]
-            .into_iter()
-            .find(|k| k.name() == name)
     }
 }
 

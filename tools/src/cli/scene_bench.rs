@@ -18,7 +18,7 @@ use raybatch::{AccelKind, AnyAccel, BatchOrdering, BuildOptions, Footprint, Kern
 use raybatch_tools::scenes::instanced::{World, WorldRays, large, props, tiles, world_rays, yawed};
 use raybatch_tools::scenes::{self, RaySet, SceneKind};
 
-use crate::bench::progress;
+use crate::progress;
 use crate::runner::{Engine, Query, QueryKind};
 use crate::table::{Align, Table, ratio, thousands};
 use crate::workload::{PASSES, speed};
@@ -86,7 +86,7 @@ fn speed_table() -> Table {
 
 /// One row per ray kind for `world`.
 fn speed_rows(world: &World, rays: usize, table: &mut Table) {
-    progress(&format!("instanced: building {} ...", world.name));
+    progress::step(format!("instanced: building {}", world.name));
     let start = Instant::now();
     let scene = world
         .build(AccelKind::DEFAULT)
@@ -95,11 +95,7 @@ fn speed_rows(world: &World, rays: usize, table: &mut Table) {
     let bounds = world.bounds();
     let scene = AnyAccel::new(scene);
     for kind in WorldRays::ALL {
-        progress(&format!(
-            "instanced: {} {} rays ...",
-            world.name,
-            kind.name()
-        ));
+        progress::step(format!("instanced: {} {} rays", world.name, kind.name()));
         let set = world_rays(kind, &bounds, rays, 5);
         let (one, many) = (
             speed(&scene, per_ray(), &set),
@@ -120,7 +116,7 @@ fn speed_rows(world: &World, rays: usize, table: &mut Table) {
 
 /// The city as one scene instance at the identity against its bare tree.
 fn overhead(rays: usize) -> String {
-    progress("instanced: scene overhead ...");
+    progress::step("instanced: scene overhead");
     let city = scenes::city(scenes::BUILTIN_CITY_BLOCKS).mesh;
     let set = scenes::generate(RaySet::Incoherent, &city, SceneKind::City, rays, 6);
     let options = BuildOptions::default();
@@ -149,7 +145,7 @@ fn overhead(rays: usize) -> String {
 
 /// 10,000 moving crates: top-level refit against rebuild per frame, and what each leaves.
 fn motion(rays: usize) -> String {
-    progress("instanced: moving instances ...");
+    progress::step("instanced: moving instances");
     let world = props(MOVING, 1000.0, 7);
     let mut refitted = world.build(AccelKind::DEFAULT).expect("the props build");
     let mut rebuilt = world.build(AccelKind::DEFAULT).expect("the props build");
