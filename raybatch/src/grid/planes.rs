@@ -48,7 +48,7 @@ impl Planes {
     }
 
     /// Plane `i` (`0..=slabs()`).
-    #[inline(always)]
+    #[cfg(test)]
     pub(crate) fn at(&self, i: u32) -> f32 {
         self.at[i as usize]
     }

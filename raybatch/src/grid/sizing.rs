@@ -112,7 +112,9 @@ pub(crate) fn resolution(
             if flat[a] {
                 1
             } else {
-                (extent[a] / (scale * shape[a])).round().clamp(1.0, max_cells) as u32
+                (extent[a] / (scale * shape[a]))
+                    .round()
+                    .clamp(1.0, max_cells) as u32
             }
         });
         let newly_flat: Vec<usize> = (0..3).filter(|&a| !flat[a] && dims[a] == 1).collect();
@@ -177,15 +179,28 @@ mod tests {
         let bounds = Aabb::new(Vec3::ZERO, Vec3::new(1000.0, 100.0, 1000.0));
         let [x, y, z] = resolution(&bounds, 1_000_000, shape, &options);
         let cube = resolution(&bounds, 1_000_000, [1.0; 3], &options);
-        assert!(x > cube[0] && z > cube[2] && y < cube[1], "{:?} {cube:?}", [x, y, z]);
+        assert!(
+            x > cube[0] && z > cube[2] && y < cube[1],
+            "{:?} {cube:?}",
+            [x, y, z]
+        );
         // A cube's six faces: cubes.
         let corners = (0..8)
             .map(|i| Vec3::new((i & 1) as f32, (i >> 1 & 1) as f32, (i >> 2) as f32))
             .collect();
         let faces = vec![
-            [0, 1, 3], [0, 3, 2], [4, 7, 5], [4, 6, 7], // z = 0, 1
-            [0, 5, 1], [0, 4, 5], [2, 3, 7], [2, 7, 6], // y = 0, 1
-            [0, 2, 6], [0, 6, 4], [1, 5, 7], [1, 7, 3], // x = 0, 1
+            [0, 1, 3],
+            [0, 3, 2],
+            [4, 7, 5],
+            [4, 6, 7], // z = 0, 1
+            [0, 5, 1],
+            [0, 4, 5],
+            [2, 3, 7],
+            [2, 7, 6], // y = 0, 1
+            [0, 2, 6],
+            [0, 6, 4],
+            [1, 5, 7],
+            [1, 7, 3], // x = 0, 1
         ];
         let cube_mesh = Mesh::new(corners, faces).unwrap();
         let ids: Vec<u32> = (0..12).collect();
@@ -204,7 +219,12 @@ mod tests {
             max_cells: 1000,
             ..GridOptions::default()
         };
-        let d = resolution(&Aabb::new(Vec3::ZERO, Vec3::ONE), 1 << 30, [1.0; 3], &options);
+        let d = resolution(
+            &Aabb::new(Vec3::ZERO, Vec3::ONE),
+            1 << 30,
+            [1.0; 3],
+            &options,
+        );
         assert!(
             d.iter().map(|&x| x as u64).product::<u64>() <= 1000,
             "{d:?}"

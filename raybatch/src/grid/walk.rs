@@ -123,11 +123,11 @@ impl<'a> Walk<'a> {
         };
         let mut t0 = ray.tmin;
         let mut far = tmax.min(f32::MAX);
-        for i in 0..3 {
-            let n = planes[i].slabs();
+        for (i, axis) in planes.iter().enumerate() {
+            let n = axis.slabs();
             if w.inv[i].is_infinite() {
                 // Parallel: the slabs holding the origin stay active for the whole ray.
-                (w.back[i], w.front[i]) = planes[i].holding(w.origin[i])?;
+                (w.back[i], w.front[i]) = axis.holding(w.origin[i])?;
                 continue;
             }
             let forward = w.inv[i] >= 0.0;
@@ -150,9 +150,9 @@ impl<'a> Walk<'a> {
         if t0 > far {
             return None;
         }
-        for i in 0..3 {
+        for (i, axis) in planes.iter().enumerate() {
             if !w.inv[i].is_infinite() {
-                w.place(i, &planes[i], ray.dir[i], t0);
+                w.place(i, axis, ray.dir[i], t0);
             }
         }
         Some(w)
@@ -293,7 +293,11 @@ impl<'a> Walk<'a> {
     ) -> bool {
         let range = |i: usize| {
             let (b, f) = (self.back[i], self.front[i]);
-            if i == entered { (f, f) } else { (b.min(f), b.max(f)) }
+            if i == entered {
+                (f, f)
+            } else {
+                (b.min(f), b.max(f))
+            }
         };
         let [(x0, x1), (y0, y1), (z0, z1)] = [range(0), range(1), range(2)];
         // (`while` loops: inclusive ranges compile to slower loops. One call site, so that the
