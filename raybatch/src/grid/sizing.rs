@@ -3,7 +3,7 @@
 //! The seed's rule of thumb, "cell size about the largest object", fails when object sizes
 //! vary (one large ground quad would make one cell). The classic count rule (Cleary and Wyvill;
 //! Ize et al.) is used instead: about `cells_per_triangle * N` cells in all. Their shape comes
-//! from the triangles ([`cell_shape`]): cube cells for a surface facing every way (a statue),
+//! from the triangles (`cell_shape`): cube cells for a surface facing every way (a statue),
 //! columns for a height field. An axis the bounds are flat along (a height field's up axis may
 //! be thin; a planar mesh's is zero) gets one slab, and the size is recomputed over the other
 //! axes. The total is capped ([`GridOptions::max_cells`]); the builder coarsens further if
@@ -39,9 +39,9 @@ pub struct GridOptions {
     /// Cells along x, y and z, if given: overrides the density and the shape (still capped
     /// by `max_cells`).
     pub resolution: Option<[u32; 3]>,
-    /// Shape the cells after the triangles' orientation ([`cell_shape`]): long along the axis
-    /// the surface faces most (a height field gets columns: fine across, few slabs up). If
-    /// false, cube cells.
+    /// Shape the cells after the triangles' orientation (see the
+    /// [module docs](crate::grid::sizing)): long along the axis the surface faces most (a
+    /// height field gets columns: fine across, few slabs up). If false, cube cells.
     pub shaped_cells: bool,
 }
 
