@@ -21,6 +21,7 @@
 use crate::batch::lanes::Lanes;
 use crate::batch::options::BatchOptions;
 use crate::batch::partition::Partitioner;
+use crate::batch::rays::PreparedRays;
 use crate::geom::sign_filter::RayQuad;
 use crate::geom::{Aabb, PreparedRay, TriangleTest};
 use crate::hit::Visitor;
@@ -31,6 +32,10 @@ pub trait Accel: Sync + Sized {
     /// Created on first use in each thread's workspace and reused afterwards; shared by every
     /// structure of the same type that the thread queries.
     type Scratch: Default + Send + 'static;
+
+    /// How the batched queries hand this structure its rays ([`StreamLayout`]). Both layouts
+    /// answer every [`RayStream`] method; the choice only changes what is cheap.
+    const STREAM_LAYOUT: StreamLayout = StreamLayout::Records;
 
     /// Reports to `visitor`, as ray number `id`, every hit of `ray` with kernel `K` in
     /// `[ray.tmin, tmax]`, where `tmax` starts at `ray.tmax` and follows what the visitor sets;
@@ -89,15 +94,35 @@ pub trait Footprint {
     }
 }
 
+/// How a batch's rays are laid out in a [`RayStream`] ([`Accel::STREAM_LAYOUT`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum StreamLayout {
+    /// Structure-of-arrays lanes: [`RayStream::partition`] tests 8 or 16 rays per instruction
+    /// and moves whole rays, so a binary tree's stream finds its rays' constants contiguous at
+    /// every node. Preparing them costs a scatter into sixteen columns.
+    Lanes,
+    /// One prepared record per ray, written once: for structures that keep lists of ray
+    /// indices or take rays one at a time (the 4-wide tree, grids, kd-tree). The default.
+    Records,
+}
+
+/// Where a stream's rays live (see [`StreamLayout`]).
+#[derive(Debug)]
+pub(crate) enum Storage<'a> {
+    Lanes(&'a mut Lanes),
+    Records(&'a mut PreparedRays),
+}
+
 /// The rays of one batch handed to [`Accel::trace_stream`]: prepared once (validated, kernel
-/// constants computed) and kept in structure-of-arrays lanes, so that a box test runs over 8 or
-/// 16 rays per instruction and a partition moves them without pointer chasing.
+/// constants computed) and laid out as the structure asked ([`Accel::STREAM_LAYOUT`]): in
+/// structure-of-arrays lanes, so that a box test runs over 8 or 16 rays per instruction and a
+/// partition moves them without pointer chasing, or as one record per ray.
 ///
 /// Ray `i` (for `i < len()`) has a position in the caller's batch ([`RayStream::id`]) and a
 /// current range end ([`RayStream::tmax`]). When the batch was grouped by direction octant, all
 /// rays share one octant and [`RayStream::octant_mask`] is non-zero.
 pub struct RayStream<'a> {
-    pub(crate) lanes: &'a mut Lanes,
+    pub(crate) storage: Storage<'a>,
     pub(crate) start: usize,
     pub(crate) end: usize,
     pub(crate) octant_mask: u8,
@@ -106,18 +131,22 @@ pub struct RayStream<'a> {
 }
 
 impl<'a> RayStream<'a> {
-    /// Lanes `start..end` of `lanes`.
+    /// Rays `start..end` of `storage`.
     pub(crate) fn new(
-        lanes: &'a mut Lanes,
+        storage: Storage<'a>,
         start: usize,
         end: usize,
         octant_mask: u8,
         partitioner: Partitioner,
         options: &'a BatchOptions,
     ) -> Self {
-        debug_assert!(start <= end && end <= lanes.len());
+        debug_assert!(start <= end);
+        debug_assert!(match &storage {
+            Storage::Lanes(lanes) => end <= lanes.len(),
+            Storage::Records(records) => end <= records.rays.len(),
+        });
         Self {
-            lanes,
+            storage,
             start,
             end,
             octant_mask,
@@ -152,33 +181,94 @@ impl<'a> RayStream<'a> {
     /// Ray `i`, bit for bit as prepared, with its current range end.
     #[inline(always)]
     pub fn ray(&self, i: usize) -> PreparedRay {
-        self.lanes.ray(self.lane(i))
+        let lane = self.lane(i);
+        match &self.storage {
+            Storage::Lanes(lanes) => lanes.ray(lane),
+            Storage::Records(records) => records.rays[lane],
+        }
+    }
+
+    /// The origin of ray `i`.
+    #[inline(always)]
+    pub(crate) fn origin(&self, i: usize) -> glam::Vec3 {
+        let lane = self.lane(i);
+        match &self.storage {
+            Storage::Lanes(lanes) => lanes.origin(lane),
+            Storage::Records(records) => records.rays[lane].origin,
+        }
     }
 
     /// The sign-filter constants of rays `i..i + 4`; panics unless `i + 4 <= len()`.
     #[inline(always)]
     pub(crate) fn quad(&self, i: usize) -> RayQuad {
         assert!(i + 4 <= self.len(), "rays {i}..{} of {}", i + 4, self.len());
-        self.lanes.quad(self.start + i)
+        match &self.storage {
+            Storage::Lanes(lanes) => lanes.quad(self.start + i),
+            Storage::Records(records) => records.quad(self.start + i),
+        }
     }
 
     /// The position of ray `i` in the caller's batch (what visitors receive).
     #[inline(always)]
     pub fn id(&self, i: usize) -> u32 {
-        self.lanes.id(self.lane(i))
+        let lane = self.lane(i);
+        match &self.storage {
+            Storage::Lanes(lanes) => lanes.id(lane),
+            Storage::Records(records) => records.ids[lane],
+        }
     }
 
     /// Current range end of ray `i` (`-inf` once the ray is done).
     #[inline(always)]
     pub fn tmax(&self, i: usize) -> f32 {
-        self.lanes.tmax(self.lane(i))
+        let lane = self.lane(i);
+        match &self.storage {
+            Storage::Lanes(lanes) => lanes.tmax(lane),
+            Storage::Records(records) => records.rays[lane].tmax,
+        }
     }
 
     /// Sets the range end of ray `i`.
     #[inline(always)]
     pub fn set_tmax(&mut self, i: usize, tmax: f32) {
         let lane = self.lane(i);
-        self.lanes.set_tmax(lane, tmax)
+        match &mut self.storage {
+            Storage::Lanes(lanes) => lanes.set_tmax(lane, tmax),
+            Storage::Records(records) => records.rays[lane].tmax = tmax,
+        }
+    }
+
+    /// The stream's rays and batch positions as records, to walk in place; `None` in the
+    /// lanes layout.
+    pub(crate) fn records(&mut self) -> Option<(&mut [PreparedRay], &[u32])> {
+        match &mut self.storage {
+            Storage::Lanes(_) => None,
+            Storage::Records(records) => Some((
+                &mut records.rays[self.start..self.end],
+                &records.ids[self.start..self.end],
+            )),
+        }
+    }
+
+    /// Rays `0..count` as a stream of their own (same layout, octant and options).
+    pub(crate) fn prefix(&mut self, count: usize) -> RayStream<'_> {
+        assert!(
+            count <= self.len(),
+            "{count} rays of a stream of {}",
+            self.len()
+        );
+        let storage = match &mut self.storage {
+            Storage::Lanes(lanes) => Storage::Lanes(lanes),
+            Storage::Records(records) => Storage::Records(records),
+        };
+        RayStream {
+            storage,
+            start: self.start,
+            end: self.start + count,
+            octant_mask: self.octant_mask,
+            partitioner: self.partitioner,
+            options: self.options,
+        }
     }
 
     /// Tests rays `0..count` against `bounds` with the conservative slab test, moves those that
@@ -191,8 +281,11 @@ impl<'a> RayStream<'a> {
             "{count} rays of a stream of {}",
             self.len()
         );
-        self.partitioner
-            .run(self.lanes, bounds, self.start, self.start + count)
+        let (start, end) = (self.start, self.start + count);
+        match &mut self.storage {
+            Storage::Lanes(lanes) => self.partitioner.run(lanes, bounds, start, end),
+            Storage::Records(records) => records.partition(bounds, start, end),
+        }
     }
 
     /// The options of the batched call (tuning knobs a structure may read).

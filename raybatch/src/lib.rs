@@ -58,7 +58,7 @@ pub mod wide;
 pub mod workspace;
 pub mod zbt;
 
-pub use accel::{Accel, Footprint, RayStream};
+pub use accel::{Accel, Footprint, RayStream, StreamLayout};
 pub use batch::{BatchOptions, BatchOrdering, Interleave, PartitionKernel};
 pub use bvh::{AabbTree, BuildError, BuildOptions, Bvh, ChildOrdering, QuantizedAabbTree};
 pub use catalog::{AccelKind, AnyAccel};

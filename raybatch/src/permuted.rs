@@ -8,7 +8,7 @@
 //! `t`) is then applied to the original ids, so closest hits equal those of any other
 //! structure over the original mesh, ties included.
 
-use crate::accel::{Accel, Footprint, RayStream};
+use crate::accel::{Accel, Footprint, RayStream, StreamLayout};
 use crate::geom::{PreparedRay, TriangleTest};
 use crate::hit::{Hit, Visitor};
 
@@ -57,6 +57,7 @@ impl<V: Visitor> Visitor for ToOriginal<'_, V> {
 
 impl<A: Accel> Accel for Permuted<A> {
     type Scratch = A::Scratch;
+    const STREAM_LAYOUT: StreamLayout = A::STREAM_LAYOUT;
 
     #[inline]
     fn trace<K: TriangleTest, V: Visitor>(

@@ -1,4 +1,4 @@
-//! Grouping a chunk's rays by direction octant, straight into lanes.
+//! Grouping a chunk's rays by direction octant, straight into lanes or prepared-ray records.
 //!
 //! Rays are validated and prepared once, and sorted into 8 groups with a counting sort (one
 //! group when the ordering is [`BatchOrdering::Unordered`]), so that within a group every ray
@@ -7,6 +7,7 @@
 
 use super::lanes::Lanes;
 use super::options::BatchOrdering;
+use super::rays::PreparedRays;
 use crate::geom::ray::flush_subnormals;
 use crate::geom::{PreparedRay, Ray, octant};
 
@@ -40,7 +41,42 @@ pub(crate) fn prepare(
     lanes: &mut Lanes,
     keys: &mut Vec<u8>,
 ) -> Groups {
-    // Pass 1: each ray's group (GROUPS for an invalid ray), and the group sizes.
+    let starts = group_starts(rays, ordering, keys);
+    let mut next = starts;
+    lanes.reset(starts[GROUPS]);
+    for (id, (ray, &key)) in rays.iter().zip(keys.iter()).enumerate() {
+        let key = key as usize;
+        if key < GROUPS {
+            lanes.set(next[key], &PreparedRay::from_valid(ray), id as u32);
+            next[key] += 1;
+        }
+    }
+    Groups { starts, ordering }
+}
+
+/// [`prepare`] into prepared-ray records instead of lanes.
+pub(crate) fn prepare_records(
+    rays: &[Ray],
+    ordering: BatchOrdering,
+    out: &mut PreparedRays,
+    keys: &mut Vec<u8>,
+) -> Groups {
+    let starts = group_starts(rays, ordering, keys);
+    let mut next = starts;
+    out.reserve_slots(starts[GROUPS]);
+    for (id, (ray, &key)) in rays.iter().zip(keys.iter()).enumerate() {
+        let key = key as usize;
+        if key < GROUPS {
+            out.set(next[key], PreparedRay::from_valid(ray), id as u32);
+            next[key] += 1;
+        }
+    }
+    Groups { starts, ordering }
+}
+
+/// Pass 1 of the counting sort: each ray's group into `keys` (`GROUPS` for an invalid ray)
+/// and where each group starts.
+fn group_starts(rays: &[Ray], ordering: BatchOrdering, keys: &mut Vec<u8>) -> [usize; GROUPS + 1] {
     keys.clear();
     let mut counts = [0usize; GROUPS + 1];
     for ray in rays {
@@ -56,15 +92,5 @@ pub(crate) fn prepare(
     for g in 0..GROUPS {
         starts[g + 1] = starts[g] + counts[g];
     }
-    // Pass 2: prepare each valid ray straight into its lane.
-    let mut next = starts;
-    lanes.reset(starts[GROUPS]);
-    for (id, (ray, &key)) in rays.iter().zip(keys.iter()).enumerate() {
-        let key = key as usize;
-        if key < GROUPS {
-            lanes.set(next[key], &PreparedRay::from_valid(ray), id as u32);
-            next[key] += 1;
-        }
-    }
-    Groups { starts, ordering }
+    starts
 }

@@ -126,6 +126,13 @@ impl Lanes {
         }
     }
 
+    /// The origin of the ray in `lane`.
+    #[inline(always)]
+    pub fn origin(&self, lane: usize) -> Vec3 {
+        let f = |c: usize| f32::from_bits(self.cols[c][lane]);
+        Vec3::new(f(OX), f(OY), f(OZ))
+    }
+
     #[inline(always)]
     pub fn id(&self, lane: usize) -> u32 {
         self.cols[ID][lane]

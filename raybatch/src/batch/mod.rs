@@ -4,7 +4,10 @@
 //! - [`options`]: [`BatchOptions`] and [`BatchOrdering`].
 //! - `chunks`: large batches split into chunks over rayon's pool, one workspace per thread.
 //! - `group`: a chunk's rays validated, prepared and grouped by direction octant into lanes.
-//! - `lanes`: the structure-of-arrays ray lanes a [`crate::accel::RayStream`] wraps.
+//! - `lanes`: the structure-of-arrays ray lanes a [`crate::accel::RayStream`] wraps for
+//!   structures that partition rays (binary trees, scenes).
+//! - `rays`: the same rays as an array of prepared records, for structures that walk rays by
+//!   index (the 4-wide tree, grids, the kd-tree).
 //! - [`partition`]: one box against many lanes with move-to-front (AVX-512, AVX2, portable).
 //! - `scratch`: the per-thread arrays, kept in the thread's workspace.
 //!
@@ -16,6 +19,7 @@ pub(crate) mod group;
 pub(crate) mod lanes;
 pub mod options;
 pub mod partition;
+pub(crate) mod rays;
 pub(crate) mod scratch;
 
 pub use options::{BatchOptions, BatchOrdering, Interleave};

@@ -2,13 +2,16 @@
 //! [`crate::workspace::Workspace`]).
 
 use super::lanes::Lanes;
+use super::rays::PreparedRays;
 use crate::hit::Hit;
 
 /// The batched engine's working arrays.
 #[derive(Debug, Default)]
 pub(crate) struct BatchScratch {
-    /// The chunk's prepared rays.
+    /// The chunk's prepared rays, in lanes (for structures that partition them)...
     pub lanes: Lanes,
+    /// ...or in records (for the others: [`crate::accel::StreamLayout`]).
+    pub rays: PreparedRays,
     /// Closest-hit answers of the chunk, by ray.
     pub best: Vec<Hit>,
     /// Each ray's group while grouping.

@@ -2,8 +2,9 @@
 //!
 //! A call splits the batch into chunks (`crate::batch::chunks`, over rayon's current pool:
 //! wrap a call in `ThreadPool::install` to choose the thread count). Each chunk runs with its
-//! thread's workspace: its rays are validated, prepared and grouped by octant into lanes
-//! (`crate::batch::group`), and each group goes to [`Accel::trace_stream`] as one
+//! thread's workspace: its rays are validated, prepared and grouped by octant into lanes or
+//! records, as the structure asks ([`crate::accel::StreamLayout`], `crate::batch::group`), and
+//! each group goes to [`Accel::trace_stream`] as one
 //! [`RayStream`]. Steady-state calls allocate nothing and threads share nothing. Batches smaller
 //! than [`BatchOptions::min_batch`] go through the single-ray path.
 //!
@@ -11,10 +12,9 @@
 //! report the same hits with the same kernels, and the visitors ([`crate::hit`]) keep them by
 //! the tie rule, so neither the visiting order nor the grouping can change an outcome.
 
-use crate::accel::{Accel, RayStream};
+use crate::accel::{Accel, RayStream, Storage, StreamLayout};
 use crate::batch::chunks::for_each_chunk;
 use crate::batch::group::{self, Groups};
-use crate::batch::lanes::Lanes;
 use crate::batch::options::BatchOptions;
 use crate::batch::partition::Partitioner;
 use crate::batch::scratch::BatchScratch;
@@ -56,11 +56,11 @@ fn check_lengths(rays: usize, outputs: usize) -> Result<(), BatchError> {
     }
 }
 
-/// The rays of one chunk, prepared into the thread's workspace: the groups, their lanes and
-/// the structure's scratch, with the call's options.
+/// The rays of one chunk, prepared into the thread's workspace: the groups, their rays (in the
+/// structure's layout) and the structure's scratch, with the call's options.
 struct Chunk<'w, S> {
     groups: Groups,
-    lanes: &'w mut Lanes,
+    storage: Storage<'w>,
     scratch: &'w mut S,
     options: &'w BatchOptions,
     partitioner: Partitioner,
@@ -72,8 +72,11 @@ impl<S> Chunk<'_, S> {
         let options = self.options;
         for (start, end, octant_mask) in self.groups.iter() {
             let partitioner = self.partitioner;
-            let mut stream =
-                RayStream::new(self.lanes, start, end, octant_mask, partitioner, options);
+            let storage = match &mut self.storage {
+                Storage::Lanes(lanes) => Storage::Lanes(lanes),
+                Storage::Records(records) => Storage::Records(records),
+            };
+            let mut stream = RayStream::new(storage, start, end, octant_mask, partitioner, options);
             // Rays of a group have different dominant axes, so the watertight kernel dispatches
             // per ray (`Watertight` calls the same `WatertightAxis` function as the single-ray
             // path).
@@ -99,11 +102,25 @@ fn with_chunk<A: Accel, R>(
 ) -> R {
     Workspace::with_local(|workspace| {
         let (batch, scratch) = workspace.parts::<A::Scratch>();
-        let BatchScratch { lanes, best, keys } = batch;
-        let groups = group::prepare(rays, options.ordering, lanes, keys);
+        let BatchScratch {
+            lanes,
+            rays: records,
+            best,
+            keys,
+        } = batch;
+        let (groups, storage) = match A::STREAM_LAYOUT {
+            StreamLayout::Lanes => (
+                group::prepare(rays, options.ordering, lanes, keys),
+                Storage::Lanes(lanes),
+            ),
+            StreamLayout::Records => (
+                group::prepare_records(rays, options.ordering, records, keys),
+                Storage::Records(records),
+            ),
+        };
         let chunk = Chunk {
             groups,
-            lanes,
+            storage,
             scratch,
             options,
             partitioner,

@@ -10,7 +10,7 @@ use std::sync::Arc;
 
 use glam::Vec3;
 
-use crate::accel::{Accel, Footprint, RayStream};
+use crate::accel::{Accel, Footprint, RayStream, StreamLayout};
 use crate::bvh::build::MAX_LEAF_SIZE;
 use crate::bvh::{AabbTree, BuildError, BuildOptions, Bvh, QuantizedAabbTree};
 use crate::catalog::{AccelKind, too_large};
@@ -194,6 +194,8 @@ macro_rules! with_tree {
 
 impl Accel for MeshTree {
     type Scratch = MeshTreeScratch;
+    // Scenes hand their meshes' trees streams in lanes (they partition at the top level).
+    const STREAM_LAYOUT: StreamLayout = StreamLayout::Lanes;
 
     #[inline]
     fn trace<K: TriangleTest, V: Visitor>(

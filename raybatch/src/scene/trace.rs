@@ -14,10 +14,8 @@
 //! back. Both paths trace the same mesh-space rays with the same kernels and report global ids
 //! to the same visitors, so batched answers equal per-ray answers bit for bit.
 
-use glam::Vec3;
-
-use crate::accel::{Accel, Footprint, RayStream};
-use crate::batch::lanes::{Lanes, OX, OY, OZ};
+use crate::accel::{Accel, Footprint, RayStream, Storage, StreamLayout};
+use crate::batch::lanes::Lanes;
 use crate::geom::{PreparedRay, TriangleTest};
 use crate::hit::{Hit, Visitor};
 use crate::scene::filter::SceneView;
@@ -203,17 +201,7 @@ fn trace_stream<A: SceneMesh, K: TriangleTest, V: Visitor>(
 /// One padding for the whole stream: the largest any of its rays needs, read from the origin
 /// columns alone.
 fn stream_pad(stream: &RayStream<'_>) -> f32 {
-    let (start, end) = (stream.start, stream.end);
-    let cols = &stream.lanes.cols;
-    let (x, y, z) = (
-        &cols[OX][start..end],
-        &cols[OY][start..end],
-        &cols[OZ][start..end],
-    );
-    x.iter().zip(y).zip(z).fold(0.0f32, |m, ((&x, &y), &z)| {
-        let origin = Vec3::new(f32::from_bits(x), f32::from_bits(y), f32::from_bits(z));
-        m.max(ray_pad(origin))
-    })
+    (0..stream.len()).fold(0.0f32, |m, i| m.max(ray_pad(stream.origin(i))))
 }
 
 /// Rays `0..active` of `stream` on one instance: transformed once into mesh-space lanes,
@@ -230,15 +218,7 @@ fn stream_instance<A: SceneMesh, K: TriangleTest, V: Visitor>(
     if instance.transform.is_identity() {
         // Mesh space is world space: the stream's own rays go down the mesh's tree as they
         // are (the tree only reorders them within the prefix, which keeps the set).
-        let (start, octant) = (stream.start, stream.octant_mask);
-        let mut local = RayStream::new(
-            stream.lanes,
-            start,
-            start + active,
-            octant,
-            stream.partitioner,
-            stream.options,
-        );
+        let mut local = stream.prefix(active);
         let mut visitor = ToGlobal {
             first: instance.first_id,
             outer: None,
@@ -270,7 +250,8 @@ fn stream_instance<A: SceneMesh, K: TriangleTest, V: Visitor>(
     if n == 0 {
         return;
     }
-    let mut local = RayStream::new(lanes, 0, n, 0, stream.partitioner, stream.options);
+    let storage = Storage::Lanes(lanes);
+    let mut local = RayStream::new(storage, 0, n, 0, stream.partitioner, stream.options);
     let mut visitor = ToGlobal {
         first: instance.first_id,
         outer: Some(outer),
@@ -285,6 +266,8 @@ fn stream_instance<A: SceneMesh, K: TriangleTest, V: Visitor>(
 
 impl<A: SceneMesh> Accel for Scene<A> {
     type Scratch = SceneScratch<A::Scratch>;
+    // The top level partitions the stream at each of its nodes.
+    const STREAM_LAYOUT: StreamLayout = StreamLayout::Lanes;
 
     fn trace<K: TriangleTest, V: Visitor>(
         &self,
@@ -308,6 +291,8 @@ impl<A: SceneMesh> Accel for Scene<A> {
 
 impl<A: SceneMesh> Accel for SceneView<'_, A> {
     type Scratch = SceneScratch<A::Scratch>;
+    // The top level partitions the stream at each of its nodes.
+    const STREAM_LAYOUT: StreamLayout = StreamLayout::Lanes;
 
     fn trace<K: TriangleTest, V: Visitor>(
         &self,

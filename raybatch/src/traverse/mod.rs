@@ -13,13 +13,15 @@ pub(crate) mod dispatch;
 pub(crate) mod single;
 pub(crate) mod stream;
 
-use crate::accel::{Accel, RayStream};
+use crate::accel::{Accel, RayStream, StreamLayout};
 use crate::bvh::{Bvh, BvhScratch};
 use crate::geom::{PreparedRay, TriangleTest};
 use crate::hit::Visitor;
 
 impl<B: Bvh> Accel for B {
     type Scratch = BvhScratch<B::Cache, B::NodeBox>;
+    // The stream engine partitions the rays at every node (`RayStream::partition`).
+    const STREAM_LAYOUT: StreamLayout = StreamLayout::Lanes;
 
     #[inline]
     fn trace<K: TriangleTest, V: Visitor>(

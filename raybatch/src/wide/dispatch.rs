@@ -1,9 +1,10 @@
-//! The 4-wide one-ray loop in its baseline and AVX2 copies ([`crate::traverse::avx2`]).
+//! The 4-wide loops (one ray, nodes shared, side by side) in their baseline and AVX2 copies ([`crate::traverse::avx2`]).
 //! With AVX2 (and the VEX encoding it brings) the box test and the triangle kernels need fewer
 //! register copies; `wide::tests` compares the two copies.
 
-use super::WideTree;
-use super::{interleaved, single};
+use super::single::Stack;
+use super::{WideScratch, WideTree};
+use super::{interleaved, single, stream};
 use crate::accel::RayStream;
 use crate::geom::{PreparedRay, TriangleTest};
 use crate::hit::Visitor;
@@ -14,7 +15,7 @@ struct OneRay<'a, K, V> {
     tree: &'a WideTree,
     ray: &'a PreparedRay,
     id: u32,
-    stack: &'a mut Vec<(u32, f32)>,
+    stack: &'a mut Stack,
     visitor: &'a mut V,
     kernel: std::marker::PhantomData<K>,
 }
@@ -34,7 +35,7 @@ pub(crate) fn trace<K: TriangleTest, V: Visitor>(
     tree: &WideTree,
     ray: &PreparedRay,
     id: u32,
-    stack: &mut Vec<(u32, f32)>,
+    stack: &mut Stack,
     visitor: &mut V,
 ) -> f32 {
     let one = OneRay::<K, V> {
@@ -52,7 +53,7 @@ pub(crate) fn trace<K: TriangleTest, V: Visitor>(
 struct Interleaved<'a, 's, K, V> {
     tree: &'a WideTree,
     stream: &'a mut RayStream<'s>,
-    stacks: &'a mut [Vec<(u32, f32)>; interleaved::LANES],
+    stacks: &'a mut [Stack; interleaved::LANES],
     visitor: &'a mut V,
     kernel: std::marker::PhantomData<K>,
 }
@@ -71,13 +72,50 @@ pub(crate) fn trace_interleaved<K: TriangleTest, V: Visitor>(
     avx2: bool,
     tree: &WideTree,
     stream: &mut RayStream<'_>,
-    stacks: &mut [Vec<(u32, f32)>; interleaved::LANES],
+    stacks: &mut [Stack; interleaved::LANES],
     visitor: &mut V,
 ) {
     let task = Interleaved::<K, V> {
         tree,
         stream,
         stacks,
+        visitor,
+        kernel: std::marker::PhantomData,
+    };
+    avx2::run(task, avx2)
+}
+
+/// A stream through [`stream::trace_stream`] (nodes shared by the rays that reach them), as a
+/// [`Loop`].
+struct Shared<'a, 's, K, V> {
+    tree: &'a WideTree,
+    stream: &'a mut RayStream<'s>,
+    scratch: &'a mut WideScratch,
+    visitor: &'a mut V,
+    kernel: std::marker::PhantomData<K>,
+}
+
+impl<K: TriangleTest, V: Visitor> Loop for Shared<'_, '_, K, V> {
+    type Output = ();
+    #[inline(always)]
+    fn run(self) {
+        stream::trace_stream::<K, V>(self.tree, self.stream, self.scratch, self.visitor)
+    }
+}
+
+/// [`stream::trace_stream`], in the AVX2 copy if `avx2` and the CPU has it.
+#[inline]
+pub(crate) fn trace_shared<K: TriangleTest, V: Visitor>(
+    avx2: bool,
+    tree: &WideTree,
+    stream: &mut RayStream<'_>,
+    scratch: &mut WideScratch,
+    visitor: &mut V,
+) {
+    let task = Shared::<K, V> {
+        tree,
+        stream,
+        scratch,
         visitor,
         kernel: std::marker::PhantomData,
     };

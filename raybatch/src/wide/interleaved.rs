@@ -15,7 +15,7 @@
 
 use super::WideTree;
 use super::node::WideRay;
-use super::single::step;
+use super::single::{Stack, step};
 use crate::accel::RayStream;
 use crate::bvh::nodes::leaf_word;
 use crate::geom::{PreparedRay, TriangleTest};
@@ -46,7 +46,7 @@ struct Walker {
 pub(crate) fn trace_stream<K: TriangleTest, V: Visitor>(
     tree: &WideTree,
     stream: &mut RayStream<'_>,
-    stacks: &mut [Vec<(u32, f32)>; LANES],
+    stacks: &mut [Stack; LANES],
     visitor: &mut V,
 ) {
     if tree.is_empty() || stream.is_empty() {
@@ -92,15 +92,14 @@ fn start(
     stream: &RayStream<'_>,
     next: &mut usize,
     w: &mut Walker,
-    stack: &mut Vec<(u32, f32)>,
+    stack: &mut Stack,
 ) -> bool {
     while *next < stream.len() {
         let index = *next;
         *next += 1;
         let ray = stream.ray(index);
         if tree.root_bounds.hit_by(&ray, ray.tmax) {
-            stack.clear();
-            stack.reserve(3 * tree.depth + 1);
+            stack.reset(tree.depth);
             w.active = true;
             w.wide = WideRay::new(&ray);
             w.index = index;
@@ -121,7 +120,7 @@ fn start(
 fn turn<K: TriangleTest, V: Visitor>(
     tree: &WideTree,
     w: &mut Walker,
-    stack: &mut Vec<(u32, f32)>,
+    stack: &mut Stack,
     visitor: &mut V,
 ) -> bool {
     if leaf_word::is_leaf(w.item) && w.stage < LEAF_READY {

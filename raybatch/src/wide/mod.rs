@@ -37,6 +37,7 @@ use crate::geom::{Aabb, PreparedRay, TriangleTest};
 use crate::hit::Visitor;
 use crate::mesh::Mesh;
 use node::WideNode;
+use single::Stack;
 
 /// A 4-wide BVH over a mesh (see the module docs).
 #[derive(Clone, Debug)]
@@ -109,17 +110,14 @@ fn check_size(slots: usize, binary_nodes: usize) -> Result<(), BuildError> {
 #[derive(Debug, Default)]
 pub struct WideScratch {
     /// One-ray stack: child word and entry distance.
-    stack: Vec<(u32, f32)>,
-    /// Stream: the rays, prepared.
-    rays: Vec<PreparedRay>,
-    /// Stream: the lists of ray indices.
-    ids: Vec<u32>,
-    /// Stream: child masks of the list being split.
-    masks: Vec<u8>,
-    /// Stream: the lists waiting.
-    pending: Vec<stream::Pending>,
+    stack: Stack,
+    /// Stream: the index lists and what splitting them needs.
+    lists: stream::Lists,
+    /// Stream: copies of the rays of a stream in lanes, and their batch positions.
+    copies: Vec<PreparedRay>,
+    batch_ids: Vec<u32>,
     /// Interleaved engine: one stack per walker.
-    stacks: [Vec<(u32, f32)>; interleaved::LANES],
+    stacks: [Stack; interleaved::LANES],
 }
 
 impl Accel for WideTree {
@@ -150,19 +148,20 @@ impl Accel for WideTree {
         if interleave {
             dispatch::trace_interleaved::<K, V>(true, self, stream, &mut scratch.stacks, visitor)
         } else {
-            stream::trace_stream::<K, V>(self, stream, scratch, visitor)
+            dispatch::trace_shared::<K, V>(true, self, stream, scratch, visitor)
         }
     }
 }
 
 /// [`Interleave::Auto`] interleaves rays above this many bytes of nodes, leaf order and mesh.
-/// Below it the tree mostly stays in cache and sharing nodes does less work; far above it each
+/// Below it the tree mostly stays in cache and sharing nodes does less work; above it each
 /// ray waits on memory at most nodes, and walking rays side by side hides the wait. Measured
-/// (one thread, best of 4 runs, nodes shared vs interleaved): teapot (0.3 MB) 182 vs 251 ms on
-/// 1M rays (`raybatch query --passes 3`); with `cargo run --release -p raybatch-tools --example
-/// interleave -- SCENE` on 500k rays: bunny (4.0 MB) at the crossover (239 vs 189 ms in one
-/// run, 242 vs 296 on 1M rays in another), city (4.9 MB) 220 vs 206, terrain (54 MB) 636 vs 250.
-const INTERLEAVE_ABOVE_BYTES: usize = 4 << 20;
+/// (one thread, 200k incoherent rays, best of 3-4 runs of `raybatch query --passes 3`, nodes
+/// shared vs side by side, on a loaded machine): teapot (0.3 MB) 55 vs 91 ms; bunny (4.0 MB)
+/// 133 vs 67 and 137 vs 102 ms since the one-ray loop pushes children without branches (it was
+/// at the crossover before, hence the earlier 4 MiB); city (4.9 MB) and terrain (54 MB) were
+/// already faster side by side (`cargo run --release -p raybatch-tools --example interleave`).
+const INTERLEAVE_ABOVE_BYTES: usize = 1 << 20;
 
 impl WideTree {
     /// What a walk through the tree may read: nodes, leaf order (and corners) and the mesh.
@@ -216,7 +215,7 @@ mod tests {
         }
         let mesh = Arc::new(bunny());
         let tree = WideTree::build(mesh.clone(), &BuildOptions::default()).unwrap();
-        let mut stack = Vec::new();
+        let mut stack = Stack::default();
         for ray in random_rays(&mesh, 20_000, 8) {
             let prepared = PreparedRay::new(&ray).unwrap();
             let mut answers = [Hit::none_before(prepared.tmax); 2];

@@ -5,7 +5,8 @@
 //! bounds: [[f32; 4]; 6]  min x, min y, min z, max x, max y, max z, one lane per child
 //! child:  [u32; 4]       internal child: its node index (bit 31 clear)
 //!                        leaf child: the leaf word of `bvh::nodes` (bit 31 set, count, first slot)
-//! order:  [u8; 8]        per ray octant, the used slots nearest first (2 bits each)
+//! order:  [u8; 8]        per ray octant, the used slots nearest first, then the unused
+//!                        (2 bits each)
 //! used:   u8             slots in use (0..used; the others are unused)
 //! ```
 //! 121 bytes, aligned to 128 (two cache lines). An unused slot has an empty box
@@ -13,8 +14,8 @@
 //!
 //! The order bytes are precomputed node sorting (seed 000) for four children: for each
 //! direction octant, the children sorted by the projection of their centres on the octant's
-//! diagonal. The stream engine reads them to walk nearer children first; the one-ray loop sorts
-//! by the entry distances it computes anyway.
+//! diagonal. Both the stream engine and the one-ray loop read them to walk nearer children
+//! first (`single` says why the loop does not sort by entry distance).
 //!
 //! The lanes use glam's `Vec4` (SSE2 on x86-64, NEON on aarch64, scalar elsewhere) and do the
 //! scalar slab test's arithmetic lane by lane ([`crate::geom::aabb::box_entry`]): the same
@@ -73,19 +74,28 @@ impl WideNode {
         self.used = self.used.max(slot as u8 + 1);
     }
 
-    /// Computes the per-octant order bytes from the slots set so far.
+    /// Computes the per-octant order bytes from the slots set so far. Each byte is a
+    /// permutation of the four slots: the used ones nearest first, then the unused ones (whose
+    /// empty boxes no ray enters), so a loop over all four positions meets every slot once.
     pub(crate) fn order_children(&mut self) {
         for octant in 0..8 {
             let diagonal = octant_diagonal(octant);
             let mut slots: Vec<usize> = (0..self.used as usize).collect();
             let along = |slot: usize| self.slot_bounds(slot).center().dot(diagonal);
             slots.sort_by(|&a, &b| along(a).total_cmp(&along(b)).then(a.cmp(&b)));
+            slots.extend(self.used as usize..WIDTH);
             let byte = slots
                 .iter()
                 .rev()
                 .fold(0u8, |byte, &slot| (byte << 2) | slot as u8);
             self.order[octant as usize] = byte;
         }
+    }
+
+    /// The order byte of direction octant `octant` (see [`WideNode::order_children`]).
+    #[inline(always)]
+    pub(crate) fn order(&self, octant: u32) -> u8 {
+        self.order[octant as usize & 7]
     }
 
     /// The used slots nearest first for rays of octant mask `octant_mask` (`1 << octant`), or
@@ -108,15 +118,38 @@ impl WideNode {
     }
 }
 
+/// A node's six planes as one ray (or a stream of rays of one direction octant) meets them:
+/// per axis the near plane (the max plane when the direction is negative) and the far plane.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Planes {
+    pub(crate) near: [Vec4; 3],
+    pub(crate) far: [Vec4; 3],
+}
+
+impl WideNode {
+    /// The planes for rays whose direction has the sign bits of `octant` (bit `a` set: negative
+    /// along axis `a`, as [`crate::geom::octant`] numbers them). A stream grouped by octant
+    /// picks them once per node instead of once per ray.
+    #[inline(always)]
+    pub(crate) fn planes(&self, octant: u32) -> Planes {
+        let negative = |axis: usize| (octant >> axis) & 1 != 0;
+        let near = |axis: usize| self.bounds[axis + 3 * negative(axis) as usize];
+        let far = |axis: usize| self.bounds[axis + 3 * !negative(axis) as usize];
+        Planes {
+            near: [near(0), near(1), near(2)],
+            far: [far(0), far(1), far(2)],
+        }
+    }
+}
+
 /// Per-ray constants of the 4-lane box test, computed once per ray.
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct WideRay {
     pub(crate) origin: [Vec4; 3],
     pub(crate) inv_dir: [Vec4; 3],
-    /// For each axis, the index in [`WideNode::bounds`] of the near plane (the max plane when
-    /// the direction is negative) and of the far plane.
-    pub(crate) near: [usize; 3],
-    pub(crate) far: [usize; 3],
+    /// The ray's direction octant ([`crate::geom::octant`] of the sign bits of `inv_dir`,
+    /// which are the direction's): which planes of a node are near.
+    pub(crate) octant: u32,
     pub(crate) tmin: Vec4,
 }
 
@@ -125,22 +158,13 @@ impl WideRay {
     #[inline(always)]
     pub(crate) fn new(ray: &PreparedRay) -> Self {
         let (origin, inv_dir, tmin) = (ray.origin, ray.inv_dir, ray.tmin);
-        let negative = [inv_dir.x < 0.0, inv_dir.y < 0.0, inv_dir.z < 0.0];
-        let near = |axis: usize| axis + 3 * negative[axis] as usize;
-        let far = |axis: usize| axis + 3 * !negative[axis] as usize;
+        let splat = |v: Vec3| [Vec4::splat(v.x), Vec4::splat(v.y), Vec4::splat(v.z)];
         Self {
-            origin: [
-                Vec4::splat(origin.x),
-                Vec4::splat(origin.y),
-                Vec4::splat(origin.z),
-            ],
-            inv_dir: [
-                Vec4::splat(inv_dir.x),
-                Vec4::splat(inv_dir.y),
-                Vec4::splat(inv_dir.z),
-            ],
-            near: [near(0), near(1), near(2)],
-            far: [far(0), far(1), far(2)],
+            origin: splat(origin),
+            inv_dir: splat(inv_dir),
+            octant: (inv_dir.x < 0.0) as u32
+                | ((inv_dir.y < 0.0) as u32) << 1
+                | ((inv_dir.z < 0.0) as u32) << 2,
             tmin: Vec4::splat(tmin),
         }
     }
@@ -149,28 +173,34 @@ impl WideRay {
     /// entry distances (meaningful for those slots only), lane by lane the scalar slab test.
     #[inline(always)]
     pub(crate) fn hits(&self, node: &WideNode, tmax: f32) -> (u32, Vec4) {
+        self.hits_planes(&node.planes(self.octant), tmax)
+    }
+
+    /// [`WideRay::hits`] against planes picked beforehand (for this ray's octant).
+    #[inline(always)]
+    pub(crate) fn hits_planes(&self, planes: &Planes, tmax: f32) -> (u32, Vec4) {
         #[cfg(target_arch = "x86_64")]
         {
-            super::simd::hits(self, node, tmax)
+            super::simd::slabs(self, planes, tmax)
         }
         #[cfg(not(target_arch = "x86_64"))]
         {
-            self.hits_portable(node, tmax)
+            self.slabs_portable(planes, tmax)
         }
     }
 
-    /// [`WideRay::hits`] with glam's `Vec4` only: the portable twin of the SSE version (used
-    /// where SSE is not the baseline, and by the tests everywhere).
+    /// [`WideRay::hits_planes`] with glam's `Vec4` only: the portable twin of the SSE version
+    /// (used where SSE is not the baseline, and by the tests everywhere).
     #[cfg_attr(all(target_arch = "x86_64", not(test)), allow(dead_code))]
     #[inline(always)]
-    pub(crate) fn hits_portable(&self, node: &WideNode, tmax: f32) -> (u32, Vec4) {
+    pub(crate) fn slabs_portable(&self, planes: &Planes, tmax: f32) -> (u32, Vec4) {
         // Hits have finite `t`, so an infinite entry (a parallel ray below a slab) is a miss.
         let mut near = self.tmin;
         let mut far = Vec4::splat(tmax.min(f32::MAX));
         for axis in 0..3 {
             let (o, inv) = (self.origin[axis], self.inv_dir[axis]);
-            let enter = (node.bounds[self.near[axis]] - o) * inv;
-            let exit = (node.bounds[self.far[axis]] - o) * inv * EXIT_SCALE;
+            let enter = (planes.near[axis] - o) * inv;
+            let exit = (planes.far[axis] - o) * inv * EXIT_SCALE;
             // Compare-and-select, so a NaN lane (the ray grazes this slab) leaves the range
             // alone. Folding the axes one by one gives the scalar test's max (min) of the
             // selected values, which never depends on the order.
@@ -243,7 +273,8 @@ mod tests {
             };
             let wide_ray = WideRay::new(&ray);
             let (mask, entries) = wide_ray.hits(&node, tmax);
-            let (portable_mask, portable_entries) = wide_ray.hits_portable(&node, tmax);
+            let planes = node.planes(wide_ray.octant);
+            let (portable_mask, portable_entries) = wide_ray.slabs_portable(&planes, tmax);
             assert_eq!(mask, portable_mask, "{boxes:?}, {ray:?}");
             for slot in 0..WIDTH {
                 let scalar = if slot < slots {

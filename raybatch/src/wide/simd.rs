@@ -1,5 +1,5 @@
 //! The 4-lane box test with SSE intrinsics (x86-64), twin of
-//! [`super::node::WideRay::hits_portable`] (compared by `node::tests`).
+//! [`super::node::WideRay::slabs_portable`] (compared by `node::tests`).
 //!
 //! `maxps(a, b)` is `a > b ? a : b` and `minps(a, b)` is `a < b ? a : b`, so with the new
 //! value first they are exactly the scalar test's NaN-safe compare-and-select (a NaN lane keeps
@@ -14,12 +14,12 @@ use std::arch::x86_64::{
 
 use glam::Vec4;
 
-use super::node::{WideNode, WideRay};
+use super::node::{Planes, WideRay};
 use crate::geom::aabb::EXIT_SCALE;
 
-/// See [`WideRay::hits`].
+/// See [`WideRay::hits_planes`].
 #[inline(always)]
-pub(crate) fn hits(ray: &WideRay, node: &WideNode, tmax: f32) -> (u32, Vec4) {
+pub(crate) fn slabs(ray: &WideRay, planes: &Planes, tmax: f32) -> (u32, Vec4) {
     // SAFETY: the intrinsics need SSE and SSE2, which every x86-64 CPU has (they are part of
     // the target's baseline); they only compute on values, no memory is touched.
     unsafe {
@@ -29,8 +29,8 @@ pub(crate) fn hits(ray: &WideRay, node: &WideNode, tmax: f32) -> (u32, Vec4) {
         for axis in 0..3 {
             let o: __m128 = ray.origin[axis].into();
             let inv: __m128 = ray.inv_dir[axis].into();
-            let near_plane: __m128 = node.bounds[ray.near[axis]].into();
-            let far_plane: __m128 = node.bounds[ray.far[axis]].into();
+            let near_plane: __m128 = planes.near[axis].into();
+            let far_plane: __m128 = planes.far[axis].into();
             let enter = _mm_mul_ps(_mm_sub_ps(near_plane, o), inv);
             let exit = _mm_mul_ps(_mm_mul_ps(_mm_sub_ps(far_plane, o), inv), scale);
             near = _mm_max_ps(enter, near);

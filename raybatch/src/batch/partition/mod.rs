@@ -24,7 +24,7 @@ mod avx2;
 #[cfg(target_arch = "x86_64")]
 #[allow(unsafe_code)]
 mod avx512;
-mod portable;
+pub(crate) mod portable;
 
 use super::lanes::Lanes;
 use crate::geom::Aabb;
