@@ -5,6 +5,13 @@
 //! variant's closest hits are checked against the AABB tree's (same triangle, same `t` bits).
 //!
 //! `cargo run --release -p raybatch-tools --example grid_tuning [-- bunny|terrain|city|sparse [RAYS]]`
+//!
+//! `... grid_tuning -- profile SCENE SET aabb|grid|grid-cube|grid:NXxNYxNZ|kd RAYS`
+//! (`grid-cube`: the grid with cube cells, `GridOptions::shaped_cells` off) builds one structure and traces one
+//! ray set (`incoherent`, `camera`, `short`, `vertical`) through `trace_set`, a function of its
+//! own, so that `valgrind --tool=callgrind --collect-atstart=no
+//! --toggle-collect='*trace_set*'` counts the instructions of the queries alone (not the
+//! scene, the rays or the build): divide by RAYS for instructions per ray.
 
 use std::time::Instant;
 
@@ -18,25 +25,21 @@ use raybatch_tools::scenes::{self, RaySet, SplitMix64};
 
 fn main() {
     let mut args = std::env::args().skip(1);
-    let scene = match args.next().as_deref() {
-        None | Some("terrain") => scenes::terrain(scenes::BUILTIN_TERRAIN_CELLS),
-        Some("bunny") => scenes::bunny(),
-        Some("city") => scenes::city(scenes::BUILTIN_CITY_BLOCKS),
-        Some("sparse") => scenes::sparse(scenes::BUILTIN_SPARSE_CLUSTERS),
-        Some(other) => panic!("unknown scene {other}: bunny, terrain, city or sparse"),
-    };
+    let first = args.next();
+    if first.as_deref() == Some("profile") {
+        let rest: Vec<String> = args.collect();
+        let [scene, set, structure, count] = rest.as_slice() else {
+            panic!("profile SCENE SET aabb|grid|grid-cube|grid:NXxNYxNZ|kd RAYS");
+        };
+        return profile(scene, set, structure, count.parse().expect("a ray count"));
+    }
+    let scene = scene(first.as_deref().unwrap_or("terrain"));
     let count: usize = args
         .next()
         .map_or(100_000, |n| n.parse().expect("a ray count"));
-    let sets: Vec<(&str, Vec<Ray>)> = [RaySet::Incoherent, RaySet::Camera, RaySet::Short]
+    let sets: Vec<(&str, Vec<Ray>)> = ["incoherent", "camera", "short", "vertical"]
         .into_iter()
-        .map(|s| {
-            (
-                s.name(),
-                scenes::generate(s, &scene.mesh, scene.kind, count, 7),
-            )
-        })
-        .chain([("vertical", vertical_rays(&scene.mesh, count))])
+        .map(|s| (s, ray_set(&scene, s, count)))
         .collect();
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(1)
@@ -74,9 +77,10 @@ fn main() {
                 &reference,
             );
         }
-        for density in [1.0, 4.0] {
+        for (density, shaped_cells) in [(2.0, true), (2.0, false), (1.0, true), (4.0, true)] {
             let options = GridOptions {
                 cells_per_triangle: density,
+                shaped_cells,
                 ..GridOptions::default()
             };
             let start = Instant::now();
@@ -84,7 +88,8 @@ fn main() {
             let ms = ms_since(start);
             let m: Vec<_> = sets.iter().map(|(_, rays)| measure(&grid, rays)).collect();
             check(&reference, &m);
-            let name = format!("grid {density} cells/tri {:?}", grid.resolution());
+            let cells = if shaped_cells { "shaped" } else { "cube" };
+            let name = format!("grid {density} cells/tri, {cells} {:?}", grid.resolution());
             row(&name, ms, &grid, &m, &reference);
         }
         for density in [2.0, HASH_CELLS_PER_TRIANGLE, 64.0] {
@@ -128,7 +133,7 @@ fn main() {
             return;
         }
         let extent = scene.mesh.bounds().extent();
-        for (across, up) in [(708, 8), (708, 24), (500, 8), (500, 24), (1000, 16)] {
+        for (across, up) in [(708, 8), (500, 8)] {
             // Fine cells across the scene's two largest axes, `up` along the smallest.
             let small = (0..3)
                 .min_by(|&a, &b| extent[a].total_cmp(&extent[b]))
@@ -148,6 +153,68 @@ fn main() {
             row(&name, ms, &grid, &m, &reference);
         }
     });
+}
+
+/// The built-in scene called `name`.
+fn scene(name: &str) -> scenes::Scene {
+    match name {
+        "terrain" => scenes::terrain(scenes::BUILTIN_TERRAIN_CELLS),
+        "bunny" => scenes::bunny(),
+        "city" => scenes::city(scenes::BUILTIN_CITY_BLOCKS),
+        "sparse" => scenes::sparse(scenes::BUILTIN_SPARSE_CLUSTERS),
+        other => panic!("unknown scene {other}: bunny, terrain, city or sparse"),
+    }
+}
+
+/// `count` rays of the set called `name`: one of `raybatch bench`'s, or `vertical`.
+fn ray_set(scene: &scenes::Scene, name: &str, count: usize) -> Vec<Ray> {
+    if name == "vertical" {
+        return vertical_rays(&scene.mesh, count);
+    }
+    let set = RaySet::from_name(name).unwrap_or_else(|| panic!("unknown ray set {name}"));
+    scenes::generate(set, &scene.mesh, scene.kind, count, 7)
+}
+
+/// The `profile` mode (see the module docs): one structure at its defaults, one ray set.
+fn profile(scene: &str, set: &str, structure: &str, count: usize) {
+    let scene = self::scene(scene);
+    let rays = ray_set(&scene, set, count);
+    let mesh = scene.mesh;
+    let hits = match structure {
+        "aabb" => {
+            let tree: AabbTree = AabbTree::build(mesh, &BuildOptions::default()).unwrap();
+            trace_set(&tree, &rays)
+        }
+        "grid" | "grid-cube" => {
+            let options = GridOptions {
+                shaped_cells: structure == "grid",
+                ..GridOptions::default()
+            };
+            let grid = UniformGrid::build(mesh, &options).unwrap();
+            println!("{:?}", grid.resolution());
+            trace_set(&grid, &rays)
+        }
+        shaped if shaped.starts_with("grid:") => {
+            // `grid:NXxNYxNZ`: a grid of that resolution.
+            let dims: Vec<u32> = shaped[5..].split('x').map(|d| d.parse().unwrap()).collect();
+            let options = GridOptions {
+                resolution: Some([dims[0], dims[1], dims[2]]),
+                ..GridOptions::default()
+            };
+            let grid = UniformGrid::build(mesh, &options).unwrap();
+            println!("{:?}", grid.resolution());
+            trace_set(&grid, &rays)
+        }
+        "kd" => trace_set(&KdTree::build(mesh, 4).unwrap(), &rays),
+        other => panic!("unknown structure {other}: aabb, grid or kd"),
+    };
+    println!("{hits} of {count} rays hit");
+}
+
+/// Closest hits of `rays`, counted: the only code a profile of the `profile` mode collects.
+#[inline(never)]
+fn trace_set<A: Accel>(accel: &A, rays: &[Ray]) -> usize {
+    rays.iter().filter(|r| accel.cast_ray(r).is_some()).count()
 }
 
 /// Rays straight down from above the bounds at uniform random `x`, `z`.

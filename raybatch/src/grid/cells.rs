@@ -111,14 +111,14 @@ impl Cells {
         })
     }
 
-    /// The references of cell `cell` (slab indices).
+    /// The references of cell `cell` (slab indices), `None` if it holds none.
     #[inline(always)]
-    pub(crate) fn cell(&self, cell: [u32; 3]) -> &[u32] {
+    pub(crate) fn occupied(&self, cell: [u32; 3]) -> Option<&[u32]> {
         let c = cell_index(self.dims, cell);
         if self.occupied[c / 64] & (1 << (c % 64)) == 0 {
-            return &[];
+            return None;
         }
-        &self.refs[self.offsets[c] as usize..self.offsets[c + 1] as usize]
+        Some(&self.refs[self.offsets[c] as usize..self.offsets[c + 1] as usize])
     }
 
     /// True if no cell holds a triangle.
@@ -177,9 +177,9 @@ mod tests {
         let planes = grid_planes(&bounds, dims);
         let blocks = blocks(&mesh, &[0, 1], &planes);
         let cells = Cells::build(dims, &[0, 1], &blocks, 100).unwrap();
-        assert_eq!(cells.cell([0, 0, 0]), [0, 1 | SHARED]);
-        assert_eq!(cells.cell([1, 0, 0]), [1 | SHARED]);
-        assert_eq!(cells.cell([1, 1, 0]), [1 | SHARED]);
+        assert_eq!(cells.occupied([0, 0, 0]), Some(&[0, 1 | SHARED][..]));
+        assert_eq!(cells.occupied([1, 0, 0]), Some(&[1 | SHARED][..]));
+        assert_eq!(cells.occupied([1, 1, 0]), Some(&[1 | SHARED][..]));
         assert_eq!((cells.len(), cells.reference_count()), (4, 5));
         assert_eq!(Cells::build(dims, &[0, 1], &blocks, 4).unwrap_err(), 5);
     }

@@ -18,7 +18,7 @@ use crate::mesh::Mesh;
 
 use super::cells::{Block, blocks, for_each_cell, grid_planes, reference};
 use super::mailbox::Mailbox;
-use super::sizing::{GridOptions, cap, resolution};
+use super::sizing::{GridOptions, cap, cell_shape, resolution};
 use super::table::CellTable;
 use super::uniform::{live_triangles, test_cell};
 use super::walk::{GridPlanes, walk};
@@ -107,7 +107,7 @@ impl SpatialHash {
         GridOptions {
             cells_per_triangle: HASH_CELLS_PER_TRIANGLE,
             max_cells: u32::MAX,
-            resolution: None,
+            ..GridOptions::default()
         }
     }
 
@@ -127,7 +127,8 @@ impl SpatialHash {
                 coarse: Coarse::default(),
             });
         }
-        let mut dims = resolution(&bounds, live.len(), options).map(|d| d.min(MAX_SLABS));
+        let shape = cell_shape(&mesh, &live, options);
+        let mut dims = resolution(&bounds, live.len(), shape, options).map(|d| d.min(MAX_SLABS));
         let max_refs = (REFERENCES_PER_TRIANGLE * live.len() as u64).min(u64::from(u32::MAX));
         loop {
             let planes = grid_planes(&bounds, dims);

@@ -48,9 +48,15 @@ impl Planes {
     }
 
     /// Plane `i` (`0..=slabs()`).
-    #[inline(always)]
+    #[cfg(test)]
     pub(crate) fn at(&self, i: u32) -> f32 {
         self.at[i as usize]
+    }
+
+    /// Every plane, `at(0)` to `at(slabs())`.
+    #[inline(always)]
+    pub(crate) fn planes(&self) -> &[f32] {
+        &self.at
     }
 
     /// A guess of the slab holding `x`, clamped to the slabs (exact answers come from the
@@ -73,14 +79,32 @@ impl Planes {
     }
 
     /// The slabs `(first, last)` that hold the point `x` (two when it lies on a plane
-    /// between them); `None` if `x` is outside the bounds.
+    /// between them); `None` if `x` is outside the bounds. From [`Planes::guess`], corrected
+    /// against the planes (a step or two, not a binary search: the walk calls this for every
+    /// ray parallel to an axis, such as a height field's vertical rays).
+    #[inline(always)]
     pub(crate) fn holding(&self, x: f32) -> Option<(u32, u32)> {
         let n = self.slabs() as usize;
         if !(self.at[0] <= x && x <= self.at[n]) {
             return None;
         }
-        let first = self.at[1..].partition_point(|&p| p < x).min(n - 1);
-        let last = self.at[..n].partition_point(|&p| p <= x).saturating_sub(1);
+        let guess = self.guess(x) as usize;
+        // The lowest slab whose top plane is at or above x.
+        let mut first = guess;
+        while first > 0 && self.at[first] >= x {
+            first -= 1;
+        }
+        while first + 1 < n && self.at[first + 1] < x {
+            first += 1;
+        }
+        // The highest slab whose bottom plane is at or below x.
+        let mut last = guess;
+        while last + 1 < n && self.at[last + 1] <= x {
+            last += 1;
+        }
+        while last > 0 && self.at[last] > x {
+            last -= 1;
+        }
         Some((first as u32, last.max(first) as u32))
     }
 
@@ -131,5 +155,22 @@ mod tests {
         assert_eq!(p.guess(2.5), 2);
         assert_eq!(p.guess(-9.0), 0);
         assert_eq!(p.guess(f32::NAN), 0);
+    }
+
+    #[test]
+    fn holding_agrees_with_a_scan_of_the_planes() {
+        let mut rng = crate::test_support::TestRng::new(5);
+        for (min, max, n) in [(0.1f32, 0.7f32, 3u32), (-3.3, 1e4, 707), (5.0, 5.0, 1)] {
+            let p = Planes::new(min, max, n);
+            let at = p.planes();
+            let planes_and_randoms = (0..=n)
+                .map(|i| p.at(i))
+                .chain((0..300).map(|_| rng.range(min - 1.0, max + 1.0)));
+            for x in planes_and_randoms {
+                let slabs = (0..n).filter(|&i| at[i as usize] <= x && x <= at[i as usize + 1]);
+                let want = slabs.clone().min().zip(slabs.max());
+                assert_eq!(p.holding(x), want, "{x} in {min}..{max} / {n}");
+            }
+        }
     }
 }

@@ -2,14 +2,31 @@
 //!
 //! The seed's rule of thumb, "cell size about the largest object", fails when object sizes
 //! vary (one large ground quad would make one cell). The classic count rule (Cleary and Wyvill;
-//! Ize et al.) is used instead: about `cells_per_triangle * N` cells in all, cube-shaped (the
-//! same size along every axis), so the grid follows the bounds' proportions. An axis the
-//! bounds are flat along (a height field's up axis may be thin; a planar mesh's is zero) gets
-//! one slab, and the cube size is recomputed over the other axes. The total is capped
-//! ([`GridOptions::max_cells`]); the builder coarsens further if triangles would be stored too
-//! many times (`super::cells`).
+//! Ize et al.) is used instead: about `cells_per_triangle * N` cells in all. Their shape comes
+//! from the triangles (`cell_shape`): cube cells for a surface facing every way (a statue),
+//! columns for a height field. An axis the bounds are flat along (a height field's up axis may
+//! be thin; a planar mesh's is zero) gets one slab, and the size is recomputed over the other
+//! axes. The total is capped ([`GridOptions::max_cells`]); the builder coarsens further if
+//! triangles would be stored too many times (`super::cells`).
+//!
+//! **Why columns.** A ray crossing the surface tests the triangles of the cells it crosses
+//! there, so what matters is the surface area in a cell the surface crosses. A surface facing
+//! axis `a` (projected area `w_a` on the plane across `a`) lies in about `w_a / (c_b c_c)`
+//! cells of sides `c`: for a fixed number of cells, the area per crossed cell is smallest with
+//! `c_a` proportional to `w_a` (minimise `sum w_a / c_a` at a fixed `c_x c_y c_z`). Long cells
+//! cost steps for rays across them, so the shape is a compromise: `c_a` proportional to
+//! `w_a^SHAPE_EXPONENT`, at most [`MAX_ASPECT`] times longer than wide (measured on the
+//! terrain, bunny, city and sparse world: see the README).
 
 use crate::geom::Aabb;
+use crate::mesh::Mesh;
+
+/// The exponent of the projected areas in the cells' sides (see the module docs): 1 is the
+/// optimum for the triangles a crossing ray tests, 0 gives cubes (fewest steps).
+const SHAPE_EXPONENT: f64 = 1.0;
+
+/// Largest ratio of a cell's longest side to its shortest (from the shape rule).
+pub const MAX_ASPECT: f64 = 8.0;
 
 /// How to build a grid.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -19,10 +36,13 @@ pub struct GridOptions {
     pub cells_per_triangle: f32,
     /// Largest number of cells (4 bytes each, plus the triangle references).
     pub max_cells: u32,
-    /// Cells along x, y and z, if given: overrides the density (still capped by
-    /// `max_cells`). For scenes whose best shape is not cube cells (a height field may want
-    /// fine cells across and few along its up axis): measure.
+    /// Cells along x, y and z, if given: overrides the density and the shape (still capped
+    /// by `max_cells`).
     pub resolution: Option<[u32; 3]>,
+    /// Shape the cells after the triangles' orientation (see the
+    /// [module docs](crate::grid::sizing)): long along the axis the surface faces most (a
+    /// height field gets columns: fine across, few slabs up). If false, cube cells.
+    pub shaped_cells: bool,
 }
 
 impl Default for GridOptions {
@@ -31,13 +51,42 @@ impl Default for GridOptions {
             cells_per_triangle: 2.0,
             max_cells: 1 << 24,
             resolution: None,
+            shaped_cells: true,
         }
     }
 }
 
-/// Slabs per axis for `triangles` triangles in `bounds` (non-empty), at most `max_cells` in
-/// all.
-pub(crate) fn resolution(bounds: &Aabb, triangles: usize, options: &GridOptions) -> [u32; 3] {
+/// The relative sides of the cells for the triangles `live` of `mesh` (see the module docs):
+/// `[1, 1, 1]` for cubes (also if [`GridOptions::shaped_cells`] is off, or the triangles have
+/// no area), else `w_a^SHAPE_EXPONENT` for the projected areas `w_a`, scaled so that the
+/// longest side is 1 and clamped to at least `1 / MAX_ASPECT`.
+pub(crate) fn cell_shape(mesh: &Mesh, live: &[u32], options: &GridOptions) -> [f64; 3] {
+    if !options.shaped_cells || options.resolution.is_some() {
+        return [1.0; 3];
+    }
+    let mut projected = [0f64; 3];
+    for &id in live {
+        let [a, b, c] = mesh.triangle(id);
+        let normal = (b - a).cross(c - a).abs();
+        for (w, n) in projected.iter_mut().zip(normal.to_array()) {
+            *w += f64::from(n);
+        }
+    }
+    let largest = projected.iter().copied().fold(0.0, f64::max);
+    if !(largest > 0.0 && largest.is_finite()) {
+        return [1.0; 3];
+    }
+    projected.map(|w| (w / largest).powf(SHAPE_EXPONENT).max(1.0 / MAX_ASPECT))
+}
+
+/// Slabs per axis for `triangles` triangles in `bounds` (non-empty), cells of relative sides
+/// `shape` ([`cell_shape`]), at most `max_cells` in all.
+pub(crate) fn resolution(
+    bounds: &Aabb,
+    triangles: usize,
+    shape: [f64; 3],
+    options: &GridOptions,
+) -> [u32; 3] {
     if let Some(dims) = options.resolution {
         return cap(dims.map(|d| d.max(1)), options.max_cells.max(1));
     }
@@ -49,17 +98,23 @@ pub(crate) fn resolution(bounds: &Aabb, triangles: usize, options: &GridOptions)
     let mut dims = [1u32; 3];
     // At most three rounds: each either keeps every axis or flattens one more.
     for _ in 0..3 {
-        let volume: f64 = (0..3).filter(|&a| !flat[a]).map(|a| extent[a]).product();
+        // Cells of sides `scale * shape[a]`: `volume / scale^axes` of them.
+        let volume: f64 = (0..3)
+            .filter(|&a| !flat[a])
+            .map(|a| extent[a] / shape[a])
+            .product();
         let axes = flat.iter().filter(|&&f| !f).count();
         if axes == 0 {
             break;
         }
-        let side = (volume / target).powf(1.0 / axes as f64);
+        let scale = (volume / target).powf(1.0 / axes as f64);
         dims = [0, 1, 2].map(|a| {
             if flat[a] {
                 1
             } else {
-                (extent[a] / side).round().clamp(1.0, max_cells) as u32
+                (extent[a] / (scale * shape[a]))
+                    .round()
+                    .clamp(1.0, max_cells) as u32
             }
         });
         let newly_flat: Vec<usize> = (0..3).filter(|&a| !flat[a] && dims[a] == 1).collect();
@@ -87,7 +142,7 @@ mod tests {
     use super::*;
 
     fn dims(min: Vec3, max: Vec3, n: usize) -> [u32; 3] {
-        resolution(&Aabb::new(min, max), n, &GridOptions::default())
+        resolution(&Aabb::new(min, max), n, [1.0; 3], &GridOptions::default())
     }
 
     #[test]
@@ -108,13 +163,68 @@ mod tests {
     }
 
     #[test]
+    fn a_height_field_gets_columns_a_closed_surface_cubes() {
+        let options = GridOptions::default();
+        // A gently sloped sheet facing y (its triangles' normals are mostly +y).
+        let v = vec![
+            Vec3::new(0.0, 0.0, 0.0),
+            Vec3::new(10.0, 1.0, 0.0),
+            Vec3::new(0.0, 0.5, 10.0),
+            Vec3::new(10.0, 1.5, 10.0),
+        ];
+        let sheet = Mesh::new(v, vec![[0, 2, 1], [1, 2, 3]]).unwrap();
+        let shape = cell_shape(&sheet, &[0, 1], &options);
+        assert_eq!(shape[1], 1.0);
+        assert!(shape[0] < 0.2 && shape[2] < 0.2, "{shape:?}");
+        let bounds = Aabb::new(Vec3::ZERO, Vec3::new(1000.0, 100.0, 1000.0));
+        let [x, y, z] = resolution(&bounds, 1_000_000, shape, &options);
+        let cube = resolution(&bounds, 1_000_000, [1.0; 3], &options);
+        assert!(
+            x > cube[0] && z > cube[2] && y < cube[1],
+            "{:?} {cube:?}",
+            [x, y, z]
+        );
+        // A cube's six faces: cubes.
+        let corners = (0..8)
+            .map(|i| Vec3::new((i & 1) as f32, (i >> 1 & 1) as f32, (i >> 2) as f32))
+            .collect();
+        let faces = vec![
+            [0, 1, 3],
+            [0, 3, 2],
+            [4, 7, 5],
+            [4, 6, 7], // z = 0, 1
+            [0, 5, 1],
+            [0, 4, 5],
+            [2, 3, 7],
+            [2, 7, 6], // y = 0, 1
+            [0, 2, 6],
+            [0, 6, 4],
+            [1, 5, 7],
+            [1, 7, 3], // x = 0, 1
+        ];
+        let cube_mesh = Mesh::new(corners, faces).unwrap();
+        let ids: Vec<u32> = (0..12).collect();
+        assert_eq!(cell_shape(&cube_mesh, &ids, &options), [1.0; 3]);
+        let off = GridOptions {
+            shaped_cells: false,
+            ..options
+        };
+        assert_eq!(cell_shape(&sheet, &[0, 1], &off), [1.0; 3]);
+    }
+
+    #[test]
     fn huge_counts_are_capped() {
         let options = GridOptions {
             cells_per_triangle: 1e9,
             max_cells: 1000,
-            resolution: None,
+            ..GridOptions::default()
         };
-        let d = resolution(&Aabb::new(Vec3::ZERO, Vec3::ONE), 1 << 30, &options);
+        let d = resolution(
+            &Aabb::new(Vec3::ZERO, Vec3::ONE),
+            1 << 30,
+            [1.0; 3],
+            &options,
+        );
         assert!(
             d.iter().map(|&x| x as u64).product::<u64>() <= 1000,
             "{d:?}"

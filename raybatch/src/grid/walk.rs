@@ -52,235 +52,273 @@ pub(crate) fn walk(
     tmax: &mut f32,
     mut visit: impl FnMut([u32; 3], &mut f32),
 ) {
-    let Some(mut axes) = start(planes, ray, *tmax) else {
+    let Some(mut w) = Walk::start(planes, ray, *tmax) else {
         return;
     };
-    // Hits have finite `t` (as in the box test): `+inf` entries end the walk.
-    let far = axes.iter().map(|a| a.exit).fold(f32::MAX, f32::min);
-    if !visit_block(&axes, None, tmax, &mut visit) {
-        return;
-    }
+    // The axis whose slab was just entered: only the cells in that slab are new (3: none, at
+    // the start, where every active cell is new).
+    let mut entered = 3;
     loop {
-        let a = next_axis(&axes);
-        let te = axes[a].next_enter;
-        // Stops on +inf (no slab left), beyond the grid, beyond the best hit, or RAY_DONE
-        // (distances are never NaN: the axes that would give one have no events).
-        if te > tmax.min(far) {
+        if !w.visit_block(entered, tmax, &mut visit) {
             return;
         }
-        for axis in axes.iter_mut() {
-            axis.leave_before(te);
-        }
-        axes[a].enter_next();
-        if !visit_block(&axes, Some(a), tmax, &mut visit) {
-            return;
+        // One arm per axis, so that every array index is a constant and the state stays in
+        // registers (measured with callgrind: indexed by a variable axis, it lived on the
+        // stack); one call of the visitor above, so that it is inlined.
+        let advanced = match w.next_axis() {
+            0 => w.advance::<0>(*tmax),
+            1 => w.advance::<1>(*tmax),
+            _ => w.advance::<2>(*tmax),
+        };
+        match advanced {
+            Some(a) => entered = a,
+            None => return,
         }
     }
 }
 
-/// The axis whose next slab is entered first (the lowest index on ties, so that the order of
-/// visits is deterministic).
-#[inline(always)]
-fn next_axis(axes: &[AxisWalk; 3]) -> usize {
-    let [x, y, z] = [0, 1, 2].map(|i| axes[i].next_enter);
-    if x <= y && x <= z {
-        0
-    } else if y <= z {
-        1
-    } else {
-        2
-    }
+/// The walk's state, axis by axis (arrays indexed by axis, so that a step is a few loads and
+/// compares). Slabs are slab indices; the ray meets them in the order `s, s + step, ...`, and
+/// the plane between slab `s` and the next one it meets is `at[s + fwd]`: it is where the ray
+/// leaves `s` and enters the next. Slabs from `back` to `front` (in the ray's order) are
+/// active.
+struct Walk<'a> {
+    at: [&'a [f32]; 3],
+    origin: [f32; 3],
+    inv: [f32; 3],
+    /// 1 if the ray goes up the axis (or runs parallel to it), 0 if it goes down.
+    fwd: [u32; 3],
+    /// `+1` going up, `-1` (wrapping) going down.
+    step: [u32; 3],
+    /// The last slab the ray meets along the axis.
+    last: [u32; 3],
+    back: [u32; 3],
+    front: [u32; 3],
+    /// Entry distance of the slab after `front` (`+inf` if none, or if the ray is parallel).
+    next_enter: [f32; 3],
+    /// Exit distance of slab `back` (`+inf` if the ray is parallel).
+    next_leave: [f32; 3],
+    /// Where the ray leaves the grid (capped to `f32::MAX`: hits have finite `t`, as in the
+    /// box test, so `+inf` entries end the walk).
+    far: f32,
 }
 
-/// Visits the cells of the active block; when `entered` names an axis, only those in the slab
-/// just entered on it (the others were visited before). False if the visitor ended the ray.
-#[inline(always)]
-fn visit_block(
-    axes: &[AxisWalk; 3],
-    entered: Option<usize>,
-    tmax: &mut f32,
-    visit: &mut impl FnMut([u32; 3], &mut f32),
-) -> bool {
-    let range = |i: usize| {
-        let axis = &axes[i];
-        if entered == Some(i) {
-            let s = axis.slab(axis.front);
-            (s, s)
-        } else {
-            axis.slab_range()
-        }
-    };
-    let [(x0, x1), (y0, y1), (z0, z1)] = [range(0), range(1), range(2)];
-    for z in z0..=z1 {
-        for y in y0..=y1 {
-            for x in x0..=x1 {
-                visit([x, y, z], tmax);
-                if *tmax == RAY_DONE {
-                    return false;
-                }
+impl<'a> Walk<'a> {
+    /// The walk's state at the grid's entry distance, or `None` if the ray misses the grid in
+    /// `[ray.tmin, tmax]`.
+    #[inline(always)]
+    fn start(planes: &'a GridPlanes, ray: &PreparedRay, tmax: f32) -> Option<Self> {
+        let mut w = Walk {
+            at: [0, 1, 2].map(|i| planes[i].planes()),
+            origin: ray.origin.to_array(),
+            inv: ray.inv_dir.to_array(),
+            fwd: [1; 3],
+            step: [1; 3],
+            last: [0; 3],
+            back: [0; 3],
+            front: [0; 3],
+            next_enter: [f32::INFINITY; 3],
+            next_leave: [f32::INFINITY; 3],
+            far: f32::MAX,
+        };
+        let mut t0 = ray.tmin;
+        let mut far = tmax.min(f32::MAX);
+        for (i, axis) in planes.iter().enumerate() {
+            let n = axis.slabs();
+            if w.inv[i].is_infinite() {
+                // Parallel: the slabs holding the origin stay active for the whole ray.
+                (w.back[i], w.front[i]) = axis.holding(w.origin[i])?;
+                continue;
+            }
+            let forward = w.inv[i] >= 0.0;
+            w.fwd[i] = u32::from(forward);
+            w.step[i] = if forward { 1 } else { u32::MAX };
+            let first = if forward { 0 } else { n - 1 };
+            w.last[i] = n - 1 - first;
+            // (Plain comparisons: no distance here is NaN, see the module docs.)
+            let (enter, exit) = (w.enter(i, first), w.leave(i, w.last[i]));
+            if enter > t0 {
+                t0 = enter;
+            }
+            if exit < far {
+                far = exit;
+            }
+            if exit < w.far {
+                w.far = exit;
             }
         }
-    }
-    true
-}
-
-/// The walk's state on every axis at the grid's entry distance, or `None` if the ray misses
-/// the grid in `[ray.tmin, tmax]`.
-#[inline(always)]
-fn start<'a>(planes: &'a GridPlanes, ray: &PreparedRay, tmax: f32) -> Option<[AxisWalk<'a>; 3]> {
-    let [x, y, z] = [0, 1, 2].map(|i| AxisWalk::new(&planes[i], ray, i));
-    let mut axes = [x?, y?, z?];
-    let t0 = axes.iter().map(|a| a.enter_grid).fold(ray.tmin, f32::max);
-    let far = axes
-        .iter()
-        .map(|a| a.exit)
-        .fold(tmax.min(f32::MAX), f32::min);
-    if t0 > far {
-        return None;
-    }
-    for axis in &mut axes {
-        axis.place(ray, t0);
-    }
-    Some(axes)
-}
-
-/// One axis of the walk. Slabs are numbered in walk order `k` (`k = slab` for a ray going
-/// up the axis, `k = n - 1 - slab` going down), so that both directions step `k` upwards.
-/// Slabs `back..=front` are active.
-#[derive(Clone, Copy, Debug)]
-struct AxisWalk<'a> {
-    planes: &'a Planes,
-    axis: usize,
-    n: u32,
-    forward: bool,
-    origin: f32,
-    inv: f32,
-    back: u32,
-    front: u32,
-    /// Entry distance of slab `front + 1` (`+inf` if none, or if the ray is parallel).
-    next_enter: f32,
-    /// Exit distance of slab `back`.
-    next_leave: f32,
-    /// Entry distance of the first slab (`-inf` when parallel).
-    enter_grid: f32,
-    /// Exit distance of the last slab (`+inf` when parallel).
-    exit: f32,
-}
-
-impl<'a> AxisWalk<'a> {
-    /// The axis `axis` of the walk of `ray`, before [`AxisWalk::place`]; `None` if the ray
-    /// runs parallel to it outside the grid.
-    #[inline(always)]
-    fn new(planes: &'a Planes, ray: &PreparedRay, axis: usize) -> Option<Self> {
-        let (origin, inv) = (ray.origin[axis], ray.inv_dir[axis]);
-        let n = planes.slabs();
-        let mut walk = Self {
-            planes,
-            axis,
-            n,
-            forward: inv >= 0.0,
-            origin,
-            inv,
-            back: 0,
-            front: 0,
-            next_enter: f32::INFINITY,
-            next_leave: f32::INFINITY,
-            enter_grid: f32::NEG_INFINITY,
-            exit: f32::INFINITY,
-        };
-        if inv.is_infinite() {
-            // Parallel: the slabs holding the origin stay active for the whole ray.
-            let (first, last) = planes.holding(origin)?;
-            (walk.forward, walk.back, walk.front) = (true, first, last);
-        } else {
-            walk.enter_grid = walk.enter(0);
-            walk.exit = walk.leave(n - 1);
+        if t0 > far {
+            return None;
         }
-        Some(walk)
+        for (i, axis) in planes.iter().enumerate() {
+            if !w.inv[i].is_infinite() {
+                w.place(i, axis, ray.dir[i], t0);
+            }
+        }
+        Some(w)
     }
 
-    /// The slab of walk index `k`.
+    /// Entry distance of slab `s` on axis `i` (the box test's `enter`).
     #[inline(always)]
-    fn slab(&self, k: u32) -> u32 {
-        if self.forward { k } else { self.n - 1 - k }
+    fn enter(&self, i: usize, s: u32) -> f32 {
+        (self.at[i][(s + 1 - self.fwd[i]) as usize] - self.origin[i]) * self.inv[i]
     }
 
-    /// The active slabs as `(lowest, highest)` slab index.
+    /// Exit distance of slab `s` on axis `i` (the box test's `exit`, scaled up the same way).
     #[inline(always)]
-    fn slab_range(&self) -> (u32, u32) {
-        let (a, b) = (self.slab(self.back), self.slab(self.front));
-        (a.min(b), a.max(b))
+    fn leave(&self, i: usize, s: u32) -> f32 {
+        (self.at[i][(s + self.fwd[i]) as usize] - self.origin[i]) * self.inv[i] * EXIT_SCALE
     }
 
-    /// Entry distance of slab `k` (the box test's `enter`).
+    /// Entry distance of the slab after `front` on axis `i`, `+inf` past the last slab.
     #[inline(always)]
-    fn enter(&self, k: u32) -> f32 {
-        let plane = if self.forward { k } else { self.n - k };
-        (self.planes.at(plane) - self.origin) * self.inv
+    fn enter_after_front(&self, i: usize) -> f32 {
+        if self.front[i] == self.last[i] {
+            return f32::INFINITY;
+        }
+        (self.at[i][(self.front[i] + self.fwd[i]) as usize] - self.origin[i]) * self.inv[i]
     }
 
-    /// Exit distance of slab `k` (the box test's `exit`, scaled up the same way).
+    /// Sets axis `i`'s active slabs to those active at `t0` (the grid's entry distance): the
+    /// last entered at or before it and the first not left before it. Starts from the slab
+    /// holding the ray's point at `t0`, which is almost always the answer: two plane
+    /// distances confirm it (the distance to a plane is both the entry of the slab after it
+    /// and, scaled, the exit of the slab before it, with the same rounding). Otherwise (within
+    /// a few ulps of a plane) the guess is corrected with the exact distances.
     #[inline(always)]
-    fn leave(&self, k: u32) -> f32 {
-        let plane = if self.forward { k + 1 } else { self.n - 1 - k };
-        (self.planes.at(plane) - self.origin) * self.inv * EXIT_SCALE
-    }
-
-    /// Sets the active slabs to those active at `t0` (the grid's entry distance): the last
-    /// entered at or before it and the first not left before it. Starts from the slab
-    /// holding the ray's point at `t0` and corrects the guess with the exact distances.
-    #[inline(always)]
-    fn place(&mut self, ray: &PreparedRay, t0: f32) {
-        if self.inv.is_infinite() {
+    fn place(&mut self, i: usize, planes: &Planes, dir: f32, t0: f32) {
+        let s = planes.guess(self.origin[i] + t0 * dir);
+        let first = planes.slabs() - 1 - self.last[i];
+        let enter_s = self.enter(i, s);
+        // Entry distance of the next slab; `* EXIT_SCALE`, the exit distance of `s`.
+        let enter_next = (self.at[i][(s + self.fwd[i]) as usize] - self.origin[i]) * self.inv[i];
+        let leave_s = enter_next * EXIT_SCALE;
+        let only_s = enter_s <= t0
+            && leave_s >= t0
+            && (s == self.last[i] || enter_next > t0)
+            && (s == first || enter_s * EXIT_SCALE < t0);
+        if only_s {
+            (self.back[i], self.front[i]) = (s, s);
+            self.next_enter[i] = if s == self.last[i] {
+                f32::INFINITY
+            } else {
+                enter_next
+            };
+            self.next_leave[i] = leave_s;
             return;
         }
-        let n = self.n;
-        let x = self.origin + t0 * ray.dir[self.axis];
-        let guess = self.slab(self.planes.guess(x));
+        self.place_near_a_plane(i, planes, s, t0);
+    }
+
+    /// [`Walk::place`] when the slab holding the point is not the only active one, or not
+    /// active (`k` counts slabs in the ray's order).
+    #[cold]
+    fn place_near_a_plane(&mut self, i: usize, planes: &Planes, s: u32, t0: f32) {
+        let n = planes.slabs();
+        let forward = self.fwd[i] == 1;
+        let slab = |k: u32| if forward { k } else { n - 1 - k };
+        let enter = |k: u32| self.enter(i, slab(k));
+        let leave = |k: u32| self.leave(i, slab(k));
+        let guess = slab(s);
         let mut front = guess;
-        while front + 1 < n && self.enter(front + 1) <= t0 {
+        while front + 1 < n && enter(front + 1) <= t0 {
             front += 1;
         }
-        while front > 0 && self.enter(front) > t0 {
+        while front > 0 && enter(front) > t0 {
             front -= 1;
         }
         let mut back = guess;
-        while back > 0 && self.leave(back - 1) >= t0 {
+        while back > 0 && leave(back - 1) >= t0 {
             back -= 1;
         }
-        while back + 1 < n && self.leave(back) < t0 {
+        while back + 1 < n && leave(back) < t0 {
             back += 1;
         }
-        (self.back, self.front) = (back.min(front), back.max(front));
-        self.next_enter = self.enter_after_front();
-        self.next_leave = self.leave(self.back);
+        (self.back[i], self.front[i]) = (slab(back.min(front)), slab(back.max(front)));
+        self.next_enter[i] = self.enter_after_front(i);
+        self.next_leave[i] = self.leave(i, self.back[i]);
     }
 
-    /// Entry distance of slab `front + 1`, `+inf` past the last slab.
+    /// The axis whose next slab is entered first (the lowest index on ties, so that the order
+    /// of visits is deterministic).
     #[inline(always)]
-    fn enter_after_front(&self) -> f32 {
-        if self.front + 1 < self.n {
-            self.enter(self.front + 1)
+    fn next_axis(&self) -> usize {
+        let [x, y, z] = self.next_enter;
+        if x <= y && x <= z {
+            0
+        } else if y <= z {
+            1
         } else {
-            f32::INFINITY
+            2
         }
     }
 
-    /// Makes slab `front + 1` active.
-    #[inline(always)]
-    fn enter_next(&mut self) {
-        self.front += 1;
-        self.next_enter = self.enter_after_front();
-    }
-
-    /// Drops the slabs left strictly before `t` (keeping at least the front one: a slab is
-    /// only left once the next is entered, which keeps the active range non-empty).
+    /// Drops the slabs left strictly before `t` on every axis (keeping at least the front
+    /// one: a slab is only left once the next is entered, which keeps the range non-empty).
     #[inline(always)]
     fn leave_before(&mut self, t: f32) {
-        while self.back < self.front && self.next_leave < t {
-            self.back += 1;
-            self.next_leave = self.leave(self.back);
+        for i in 0..3 {
+            while self.back[i] != self.front[i] && self.next_leave[i] < t {
+                self.back[i] = self.back[i].wrapping_add(self.step[i]);
+                self.next_leave[i] = self.leave(i, self.back[i]);
+            }
         }
+    }
+
+    /// Enters the next slab on axis `A` (the axis whose next entry comes first): `Some(A)`, or
+    /// `None` if the walk is over before it.
+    #[inline(always)]
+    fn advance<const A: usize>(&mut self, tmax: f32) -> Option<usize> {
+        let te = self.next_enter[A];
+        // Stops on +inf (no slab left), beyond the grid, beyond the best hit, or RAY_DONE
+        // (distances are never NaN: the axes that would give one have no events).
+        if te > tmax.min(self.far) {
+            return None;
+        }
+        self.leave_before(te);
+        self.front[A] = self.front[A].wrapping_add(self.step[A]);
+        self.next_enter[A] = self.enter_after_front(A);
+        Some(A)
+    }
+
+    /// Visits the cells of the active block; when `entered` names an axis (`< 3`), only those
+    /// in the slab just entered on it (the others were visited before). False if the visitor
+    /// ended the ray.
+    #[inline(always)]
+    fn visit_block(
+        &self,
+        entered: usize,
+        tmax: &mut f32,
+        visit: &mut impl FnMut([u32; 3], &mut f32),
+    ) -> bool {
+        let range = |i: usize| {
+            let (b, f) = (self.back[i], self.front[i]);
+            if i == entered {
+                (f, f)
+            } else {
+                (b.min(f), b.max(f))
+            }
+        };
+        let [(x0, x1), (y0, y1), (z0, z1)] = [range(0), range(1), range(2)];
+        // (`while` loops: inclusive ranges compile to slower loops. One call site, so that the
+        // visitor is inlined.)
+        let mut z = z0;
+        while z <= z1 {
+            let mut y = y0;
+            while y <= y1 {
+                let mut x = x0;
+                while x <= x1 {
+                    visit([x, y, z], tmax);
+                    if *tmax == RAY_DONE {
+                        return false;
+                    }
+                    x += 1;
+                }
+                y += 1;
+            }
+            z += 1;
+        }
+        true
     }
 }
 

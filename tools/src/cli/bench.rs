@@ -152,10 +152,7 @@ pub fn run(args: &BenchArgs) -> Result<(), CliError> {
         CliError::input(format!("cannot write the report to {}: {e}", dir.display()))
     })?;
     progress::done();
-    println!(
-        "Report: {} (and report.csv beside it)",
-        page.display()
-    );
+    println!("Report: {} (and report.csv beside it)", page.display());
     Ok(())
 }
 
