@@ -7,8 +7,6 @@
 //! constants in one place. Here a ray is one 64-byte record, written once when the batch is
 //! grouped and read in place by the traversal, with no copy to or from sixteen columns.
 
-use glam::{BVec4A, Vec4};
-
 use crate::geom::sign_filter::RayQuad;
 use crate::geom::{Aabb, PreparedRay, Ray};
 
@@ -40,18 +38,7 @@ impl PreparedRays {
     /// The sign-filter constants of the rays in slots `slot..slot + 4`.
     pub(crate) fn quad(&self, slot: usize) -> RayQuad {
         let rays: &[PreparedRay; 4] = self.rays[slot..slot + 4].try_into().unwrap();
-        let lanes = |f: &dyn Fn(&PreparedRay) -> f32| Vec4::from_array(rays.map(|r| f(&r)));
-        RayQuad {
-            origin: [
-                lanes(&|r| r.origin.x),
-                lanes(&|r| r.origin.y),
-                lanes(&|r| r.origin.z),
-            ],
-            shear_x: lanes(&|r| r.shear.x),
-            shear_y: lanes(&|r| r.shear.y),
-            kz_is_x: BVec4A::from(rays.map(|r| r.kz == 0)),
-            kz_is_y: BVec4A::from(rays.map(|r| r.kz == 1)),
-        }
+        RayQuad::from_rays(rays)
     }
 
     /// Moves the rays of slots `start..end` that touch `bounds` (the conservative slab test at

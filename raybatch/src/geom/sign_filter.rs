@@ -16,6 +16,8 @@
 
 use glam::{BVec4A, Vec3, Vec4};
 
+use super::PreparedRay;
+
 /// The constants of four rays the sign test reads (lane `k` is ray `k`).
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct RayQuad {
@@ -30,6 +32,22 @@ pub(crate) struct RayQuad {
 }
 
 impl RayQuad {
+    /// The constants of four prepared rays.
+    pub(crate) fn from_rays(rays: &[PreparedRay; 4]) -> Self {
+        let lanes = |f: &dyn Fn(&PreparedRay) -> f32| Vec4::from_array(rays.each_ref().map(f));
+        RayQuad {
+            origin: [
+                lanes(&|r| r.origin.x),
+                lanes(&|r| r.origin.y),
+                lanes(&|r| r.origin.z),
+            ],
+            shear_x: lanes(&|r| r.shear.x),
+            shear_y: lanes(&|r| r.shear.y),
+            kz_is_x: BVec4A::from(rays.each_ref().map(|r| r.kz == 0)),
+            kz_is_y: BVec4A::from(rays.each_ref().map(|r| r.kz == 1)),
+        }
+    }
+
     /// Bit `k` is set unless ray `k` certainly misses `tri` (see the module docs).
     #[inline(always)]
     pub(crate) fn may_hit(&self, tri: &[Vec3; 3]) -> u32 {
@@ -76,18 +94,7 @@ mod tests {
     use crate::test_support::TestRng;
 
     fn quad(rays: &[PreparedRay; 4]) -> RayQuad {
-        let lanes = |f: &dyn Fn(&PreparedRay) -> f32| Vec4::from_array(rays.each_ref().map(f));
-        RayQuad {
-            origin: [
-                lanes(&|r| r.origin.x),
-                lanes(&|r| r.origin.y),
-                lanes(&|r| r.origin.z),
-            ],
-            shear_x: lanes(&|r| r.shear.x),
-            shear_y: lanes(&|r| r.shear.y),
-            kz_is_x: BVec4A::from(rays.each_ref().map(|r| r.kz == 0)),
-            kz_is_y: BVec4A::from(rays.each_ref().map(|r| r.kz == 1)),
-        }
+        RayQuad::from_rays(rays)
     }
 
     /// The filter never clears a lane the scalar kernel hits, over random rays of every axis
