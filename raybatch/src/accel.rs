@@ -113,6 +113,16 @@ pub(crate) enum Storage<'a> {
     Records(&'a mut PreparedRays),
 }
 
+impl Storage<'_> {
+    /// The same rays, borrowed for a shorter while (a sub-stream, one group of a chunk).
+    pub(crate) fn reborrow(&mut self) -> Storage<'_> {
+        match self {
+            Storage::Lanes(lanes) => Storage::Lanes(lanes),
+            Storage::Records(records) => Storage::Records(records),
+        }
+    }
+}
+
 /// The rays of one batch handed to [`Accel::trace_stream`]: prepared once (validated, kernel
 /// constants computed) and laid out as the structure asked ([`Accel::STREAM_LAYOUT`]): in
 /// structure-of-arrays lanes, so that a box test runs over 8 or 16 rays per instruction and a
@@ -257,12 +267,8 @@ impl<'a> RayStream<'a> {
             "{count} rays of a stream of {}",
             self.len()
         );
-        let storage = match &mut self.storage {
-            Storage::Lanes(lanes) => Storage::Lanes(lanes),
-            Storage::Records(records) => Storage::Records(records),
-        };
         RayStream {
-            storage,
+            storage: self.storage.reborrow(),
             start: self.start,
             end: self.start + count,
             octant_mask: self.octant_mask,

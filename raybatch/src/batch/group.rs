@@ -42,15 +42,10 @@ pub(crate) fn prepare(
     keys: &mut Vec<u8>,
 ) -> Groups {
     let starts = group_starts(rays, ordering, keys);
-    let mut next = starts;
     lanes.reset(starts[GROUPS]);
-    for (id, (ray, &key)) in rays.iter().zip(keys.iter()).enumerate() {
-        let key = key as usize;
-        if key < GROUPS {
-            lanes.set(next[key], &PreparedRay::from_valid(ray), id as u32);
-            next[key] += 1;
-        }
-    }
+    scatter(rays, keys, starts, |slot, ray, id| {
+        lanes.set(slot, &ray, id)
+    });
     Groups { starts, ordering }
 }
 
@@ -62,16 +57,28 @@ pub(crate) fn prepare_records(
     keys: &mut Vec<u8>,
 ) -> Groups {
     let starts = group_starts(rays, ordering, keys);
-    let mut next = starts;
     out.reserve_slots(starts[GROUPS]);
-    for (id, (ray, &key)) in rays.iter().zip(keys.iter()).enumerate() {
+    scatter(rays, keys, starts, |slot, ray, id| out.set(slot, ray, id));
+    Groups { starts, ordering }
+}
+
+/// Pass 2 of the counting sort, for either layout: `put(slot, ray, id)` for each valid ray,
+/// prepared, at its place in its group.
+#[inline(always)]
+fn scatter(
+    rays: &[Ray],
+    keys: &[u8],
+    starts: [usize; GROUPS + 1],
+    mut put: impl FnMut(usize, PreparedRay, u32),
+) {
+    let mut next = starts;
+    for (id, (ray, &key)) in rays.iter().zip(keys).enumerate() {
         let key = key as usize;
         if key < GROUPS {
-            out.set(next[key], PreparedRay::from_valid(ray), id as u32);
+            put(next[key], PreparedRay::from_valid(ray), id as u32);
             next[key] += 1;
         }
     }
-    Groups { starts, ordering }
 }
 
 /// Pass 1 of the counting sort: each ray's group into `keys` (`GROUPS` for an invalid ray)

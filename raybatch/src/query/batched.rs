@@ -72,10 +72,7 @@ impl<S> Chunk<'_, S> {
         let options = self.options;
         for (start, end, octant_mask) in self.groups.iter() {
             let partitioner = self.partitioner;
-            let storage = match &mut self.storage {
-                Storage::Lanes(lanes) => Storage::Lanes(lanes),
-                Storage::Records(records) => Storage::Records(records),
-            };
+            let storage = self.storage.reborrow();
             let mut stream = RayStream::new(storage, start, end, octant_mask, partitioner, options);
             // Rays of a group have different dominant axes, so the watertight kernel dispatches
             // per ray (`Watertight` calls the same `WatertightAxis` function as the single-ray
