@@ -99,7 +99,7 @@ fn start(
         *next += 1;
         let ray = stream.ray(index);
         if tree.root_bounds.hit_by(&ray, ray.tmax) {
-            stack.reset(tree.depth);
+            stack.reset();
             w.active = true;
             w.wide = WideRay::new(&ray);
             w.index = index;

@@ -22,6 +22,7 @@ pub mod node;
 #[allow(unsafe_code)]
 pub(crate) mod simd;
 pub(crate) mod single;
+pub(crate) mod stack;
 pub(crate) mod stream;
 
 use std::sync::Arc;
@@ -49,9 +50,6 @@ pub struct WideTree {
     root_bounds: Aabb,
     /// The leaves' triangles (the binary tree's, in its slot order).
     triangles: LeafTriangles,
-    /// Longest root-to-leaf path of the binary tree it was collapsed from: a bound on the wide
-    /// tree's depth, which sizes the one-ray stack (at most 3 pending children per level).
-    depth: usize,
 }
 
 impl WideTree {
@@ -68,7 +66,6 @@ impl WideTree {
             root,
             root_bounds,
             triangles: LeafTriangles::new(mesh, built.triangle_order, options),
-            depth: built.depth,
         })
     }
 

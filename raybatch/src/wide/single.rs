@@ -13,6 +13,7 @@
 
 use super::WideTree;
 use super::node::WideRay;
+pub(crate) use super::stack::Stack;
 use crate::bvh::nodes::leaf_word;
 use crate::geom::{PreparedRay, TriangleTest};
 use crate::hit::Visitor;
@@ -48,7 +49,7 @@ pub(crate) fn trace_from<K: TriangleTest, V: Visitor>(
     visitor: &mut V,
 ) {
     let wide_ray = WideRay::new(ray);
-    stack.reset(tree.depth);
+    stack.reset();
     let mut item = start;
     while let Some(next) = step::<K, V>(tree, (ray, &wide_ray, id), item, tmax, stack, visitor) {
         item = next;
@@ -83,7 +84,7 @@ pub(crate) fn step<K: TriangleTest, V: Visitor>(
             // on 1M bunny rays, 228 vs 218 on the teapot, best of 12 passes.)
             return Some(stack.push_hits_pop_nearest(
                 mask,
-                entries.to_array(),
+                entries,
                 &node.child,
                 node.order(wide_ray.octant),
             ));
@@ -95,65 +96,10 @@ pub(crate) fn step<K: TriangleTest, V: Visitor>(
 /// Pops pending children until one lies in front of the best hit (`<=`, for the tie rule).
 #[inline(always)]
 fn pop_in_front(stack: &mut Stack, tmax: f32) -> Option<u32> {
-    while let Some((pending, entry)) = stack.pop() {
-        if entry <= tmax {
-            return Some(pending);
+    while let Some(pending) = stack.pop() {
+        if pending.entry <= tmax {
+            return Some(pending.word);
         }
     }
     None
-}
-
-/// The one-ray loop's pending children (child word, entry distance), in a buffer sized once
-/// for the tree's depth, so a push is a store and an index bump, never a capacity check and a
-/// possible reallocation as with a `Vec`.
-///
-/// A visit pushes at most three children and goes on one level down, so a walk never holds
-/// more than three entries per level of its path: `3 * depth + 1` slots, plus the four a
-/// branch-free push writes past the top, always suffice (the slot index is still
-/// bounds-checked, so a broken bound would panic, never overrun).
-#[derive(Clone, Debug, Default)]
-pub(crate) struct Stack {
-    slots: Vec<(u32, f32)>,
-    len: usize,
-}
-
-impl Stack {
-    /// Empties the stack and makes room for a walk of a tree of binary depth `depth`.
-    #[inline(always)]
-    pub(crate) fn reset(&mut self, depth: usize) {
-        let needed = 3 * depth + 1 + 4;
-        if self.slots.len() < needed {
-            self.slots.resize(needed, (0, 0.0));
-        }
-        self.len = 0;
-    }
-
-    /// Pushes the children hit (bit `k` of `mask` for slot `k`) in the node's precomputed
-    /// order for the ray's octant (`order`, see [`super::node::WideNode::order_children`]),
-    /// farthest first, then pops the nearest and returns its word. Branch-free: every slot is
-    /// written and the top moves past it only if hit (hence the four spare slots), so which
-    /// children a ray hits never costs a mispredicted branch. `mask` must not be 0.
-    #[inline(always)]
-    fn push_hits_pop_nearest(
-        &mut self,
-        mask: u32,
-        entries: [f32; 4],
-        children: &[u32; 4],
-        order: u8,
-    ) -> u32 {
-        debug_assert!(mask != 0);
-        for k in (0..4).rev() {
-            let slot = ((order >> (2 * k)) & 3) as usize;
-            self.slots[self.len] = (children[slot], entries[slot]);
-            self.len += ((mask >> slot) & 1) as usize;
-        }
-        self.len -= 1;
-        self.slots[self.len].0
-    }
-
-    #[inline(always)]
-    fn pop(&mut self) -> Option<(u32, f32)> {
-        self.len = self.len.checked_sub(1)?;
-        Some(self.slots[self.len])
-    }
 }
