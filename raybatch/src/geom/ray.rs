@@ -127,26 +127,39 @@ pub fn octant(dir: Vec3) -> u32 {
 ///
 /// Both the box test and the triangle tests read the same (subnormal-flushed) direction, so they
 /// agree on which ray they test.
+///
+/// The layout is fixed (`repr(C)`, one 64-byte cache line): the box test's eight values
+/// (origin, inverse direction, range) come first, so the 4-wide stream split loads them as one
+/// 32-byte row per ray and transposes eight rows into eight SIMD columns.
 #[derive(Clone, Copy, Debug)]
+#[repr(C, align(64))]
 pub struct PreparedRay {
     /// The ray's origin.
     pub origin: Vec3,
-    /// The direction, subnormal components flushed to (signed) zero.
-    pub dir: Vec3,
     /// `1 / dir`, `+-inf` on zero components (see [`crate::geom::aabb`] for why that is safe).
     pub inv_dir: Vec3,
     /// Smallest accepted `t`.
     pub tmin: f32,
     /// Largest accepted `t` (the current range end during traversal).
     pub tmax: f32,
+    /// The direction, subnormal components flushed to (signed) zero.
+    pub dir: Vec3,
+    /// Watertight kernel: shear constants `dir[kx]/dir[kz]`, `dir[ky]/dir[kz]`, `1/dir[kz]`.
+    pub shear: Vec3,
     /// `1 << octant(dir)`: ANDed with a node's ordering byte to pick the child visited first.
     pub octant_mask: u8,
     /// Watertight kernel: the axis of largest `|dir|`, which becomes z after the shear;
     /// x and y are the next two axes cyclically (`kx = (kz + 1) % 3`, `ky = (kz + 2) % 3`).
     pub kz: u8,
-    /// Watertight kernel: shear constants `dir[kx]/dir[kz]`, `dir[ky]/dir[kz]`, `1/dir[kz]`.
-    pub shear: Vec3,
 }
+
+// The box test's row: origin x, y, z, inverse direction x, y, z, `tmin`, `tmax`.
+const _: () = {
+    use std::mem::offset_of;
+    assert!(offset_of!(PreparedRay, origin) == 0 && offset_of!(PreparedRay, inv_dir) == 12);
+    assert!(offset_of!(PreparedRay, tmin) == 24 && offset_of!(PreparedRay, tmax) == 28);
+    assert!(size_of::<PreparedRay>() == 64);
+};
 
 impl PreparedRay {
     /// Precomputes the kernel constants; `None` if the ray is invalid (it misses everything).

@@ -1,5 +1,12 @@
-//! The 4-lane box test with SSE intrinsics (x86-64), twin of
-//! [`super::node::WideRay::slabs_portable`] (compared by `node::tests`).
+//! The 4-wide tree's hand-written SIMD (x86-64), each with a portable twin its module's tests
+//! compare it with:
+//!
+//! - [`slabs`]: one ray against a node's four boxes with SSE, twin of
+//!   [`super::node::WideRay::slabs_portable`] (compared by `node::tests`);
+//! - [`stream_masks`]: eight rays at a time against each box with AVX2, for the stream split,
+//!   twin of its one-ray loop (compared by `stream::tests`).
+//!
+//! The one-ray box test:
 //!
 //! `maxps(a, b)` is `a > b ? a : b` and `minps(a, b)` is `a < b ? a : b`, so with the new
 //! value first they are exactly the scalar test's NaN-safe compare-and-select (a NaN lane keeps
@@ -8,13 +15,18 @@
 //! the exit scale for the far plane, no FMA.
 
 use std::arch::x86_64::{
-    __m128, _mm_cmple_ps, _mm_max_ps, _mm_min_ps, _mm_movemask_ps, _mm_mul_ps, _mm_set1_ps,
-    _mm_sub_ps,
+    __m128, __m128i, __m256, __m256i, _CMP_LE_OQ, _mm_cmple_ps, _mm_loadl_epi64, _mm_max_ps,
+    _mm_min_ps, _mm_movemask_ps, _mm_mul_ps, _mm_set1_ps, _mm_sub_ps, _mm256_cmp_ps,
+    _mm256_cvtepu8_epi32, _mm256_load_ps, _mm256_loadu_si256, _mm256_max_ps, _mm256_min_ps,
+    _mm256_movemask_ps, _mm256_mul_ps, _mm256_permute2f128_ps, _mm256_permutevar8x32_epi32,
+    _mm256_set1_ps, _mm256_shuffle_ps, _mm256_storeu_si256, _mm256_sub_ps, _mm256_unpackhi_ps,
+    _mm256_unpacklo_ps,
 };
 
 use glam::Vec4;
 
 use super::node::{Planes, WideRay};
+use crate::geom::PreparedRay;
 use crate::geom::aabb::EXIT_SCALE;
 
 /// See [`WideRay::hits_planes`].
@@ -40,3 +52,189 @@ pub(crate) fn slabs(ray: &WideRay, planes: &Planes, tmax: f32) -> (u32, Vec4) {
         (mask, near.into())
     }
 }
+
+/// Proof that the CPU has AVX2: only [`Avx2::detect`] makes one, so the safe functions that take
+/// it may run AVX2 code.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Avx2(());
+
+impl Avx2 {
+    /// `Some` if the CPU has AVX2.
+    pub(crate) fn detect() -> Option<Self> {
+        std::arch::is_x86_feature_detected!("avx2").then_some(Self(()))
+    }
+}
+
+/// The stream split's box tests eight rays at a time, twin of the one-ray-at-a-time loop
+/// (`stream::masks_one_by_one`, compared by `stream::tests`): for the first `8 * (ids.len() / 8)`
+/// rays of `ids` (indices into `rays`, all of the octant `planes` were picked for), writes one
+/// `u32` per eight rays to `group_bits` (byte `k`: which of the eight enter child `k`) and
+/// returns how many rays that was and the number entering each child in 16-bit fields.
+///
+/// Lane `j` computes exactly what [`WideRay::hits_planes`] computes for ray `j`, one child at a
+/// time: the same subtractions and products in the same order, the same NaN-keeping `max`/`min`
+/// fold and the same final compare. Panics if an index is out of range.
+#[inline(always)]
+pub(crate) fn stream_masks(
+    _: Avx2,
+    planes: &Planes,
+    rays: &[PreparedRay],
+    ids: &[u32],
+    group_bits: &mut [u32],
+) -> (usize, u64) {
+    // SAFETY: an `Avx2` exists only if the CPU has AVX2.
+    unsafe { stream_masks_avx2(planes, rays, ids, group_bits) }
+}
+
+/// See [`stream_masks`].
+///
+/// # Safety
+/// The CPU must support AVX2.
+#[inline]
+#[target_feature(enable = "avx2")]
+unsafe fn stream_masks_avx2(
+    planes: &Planes,
+    rays: &[PreparedRay],
+    ids: &[u32],
+    group_bits: &mut [u32],
+) -> (usize, u64) {
+    let groups = (ids.len() / 8).min(group_bits.len());
+    let scale = _mm256_set1_ps(EXIT_SCALE);
+    let mut counts = 0u64;
+    for g in 0..groups {
+        let group = &ids[8 * g..8 * g + 8];
+        // Each ray's first 32 bytes are its box-test row (see `PreparedRay`'s layout).
+        let rows = std::array::from_fn(|j| {
+            let ray: *const PreparedRay = &rays[group[j] as usize];
+            // SAFETY: a `PreparedRay` is 64 bytes aligned to 64, its first 32 initialised `f32`s.
+            unsafe { _mm256_load_ps(ray.cast::<f32>()) }
+        });
+        let [ox, oy, oz, ix, iy, iz, tmin, tmax] = transpose(rows);
+        let (o, inv) = ([ox, oy, oz], [ix, iy, iz]);
+        let tmax = _mm256_min_ps(tmax, _mm256_set1_ps(f32::MAX));
+        let mut bits = 0;
+        for child in 0..4 {
+            let (mut near, mut far) = (tmin, tmax);
+            for a in 0..3 {
+                let near_plane = _mm256_set1_ps(planes.near[a][child]);
+                let far_plane = _mm256_set1_ps(planes.far[a][child]);
+                let enter = _mm256_mul_ps(_mm256_sub_ps(near_plane, o[a]), inv[a]);
+                let exit =
+                    _mm256_mul_ps(_mm256_mul_ps(_mm256_sub_ps(far_plane, o[a]), inv[a]), scale);
+                near = _mm256_max_ps(enter, near);
+                far = _mm256_min_ps(exit, far);
+            }
+            let hit = _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(near, far)) as u32;
+            counts += u64::from(hit.count_ones()) << (16 * child);
+            bits |= hit << (8 * child);
+        }
+        group_bits[g] = bits;
+    }
+    (8 * groups, counts)
+}
+
+/// The stream split's list writes eight rays at a time, twin of the one-ray-at-a-time loop in
+/// `stream::Walk::split` (compared by `stream::tests`): appends the rays of `ids` (a multiple of
+/// eight) to the list of each child they enter (`group_bits` from [`stream_masks`]), list `k`
+/// growing at `lists[cursor[k]..]`, in their order. Writes up to seven slots past each list's
+/// end (a list needs `stream::SPARE` slots after it); panics rather than write outside `lists`.
+#[inline(always)]
+pub(crate) fn write_lists(
+    _: Avx2,
+    ids: &[u32],
+    group_bits: &[u32],
+    cursor: &mut [usize; 4],
+    lists: &mut [u32],
+) {
+    // SAFETY: an `Avx2` exists only if the CPU has AVX2.
+    unsafe { write_lists_avx2(ids, group_bits, cursor, lists) }
+}
+
+/// See [`write_lists`].
+///
+/// # Safety
+/// The CPU must support AVX2.
+#[inline]
+#[target_feature(enable = "avx2")]
+unsafe fn write_lists_avx2(
+    ids: &[u32],
+    group_bits: &[u32],
+    cursor: &mut [usize; 4],
+    lists: &mut [u32],
+) {
+    for (group, &bits) in ids.chunks_exact(8).zip(group_bits) {
+        // SAFETY: `group` is 32 readable bytes; an unaligned load is allowed.
+        let rays = unsafe { _mm256_loadu_si256(group.as_ptr().cast::<__m256i>()) };
+        for (child, at) in cursor.iter_mut().enumerate() {
+            let hits = (bits >> (8 * child)) & 0xFF;
+            // SAFETY: a table row is 8 readable bytes; an unaligned load is allowed.
+            let row =
+                unsafe { _mm_loadl_epi64(COMPRESS[hits as usize].as_ptr().cast::<__m128i>()) };
+            let kept = _mm256_permutevar8x32_epi32(rays, _mm256_cvtepu8_epi32(row));
+            let out: &mut [u32; 8] = (&mut lists[*at..*at + 8]).try_into().unwrap();
+            // SAFETY: `out` is 32 writable bytes of `u32`s; an unaligned store is allowed.
+            unsafe { _mm256_storeu_si256(out.as_mut_ptr().cast::<__m256i>(), kept) };
+            *at += hits.count_ones() as usize;
+        }
+    }
+}
+
+/// Eight rows of eight values to eight columns: `out[c]` lane `r` is `rows[r]` lane `c`.
+#[inline]
+#[target_feature(enable = "avx2")]
+fn transpose(rows: [__m256; 8]) -> [__m256; 8] {
+    let [r0, r1, r2, r3, r4, r5, r6, r7] = rows;
+    // Pairs of rows interleaved, then quads, within each 128-bit half...
+    let (t0, t1) = (_mm256_unpacklo_ps(r0, r1), _mm256_unpackhi_ps(r0, r1));
+    let (t2, t3) = (_mm256_unpacklo_ps(r2, r3), _mm256_unpackhi_ps(r2, r3));
+    let (t4, t5) = (_mm256_unpacklo_ps(r4, r5), _mm256_unpackhi_ps(r4, r5));
+    let (t6, t7) = (_mm256_unpacklo_ps(r6, r7), _mm256_unpackhi_ps(r6, r7));
+    let (u0, u1) = (
+        _mm256_shuffle_ps::<0x44>(t0, t2),
+        _mm256_shuffle_ps::<0xEE>(t0, t2),
+    );
+    let (u2, u3) = (
+        _mm256_shuffle_ps::<0x44>(t1, t3),
+        _mm256_shuffle_ps::<0xEE>(t1, t3),
+    );
+    let (u4, u5) = (
+        _mm256_shuffle_ps::<0x44>(t4, t6),
+        _mm256_shuffle_ps::<0xEE>(t4, t6),
+    );
+    let (u6, u7) = (
+        _mm256_shuffle_ps::<0x44>(t5, t7),
+        _mm256_shuffle_ps::<0xEE>(t5, t7),
+    );
+    // ...then the halves: rows 0-3 low, rows 4-7 high.
+    let low = |a, b| _mm256_permute2f128_ps::<0x20>(a, b);
+    let high = |a, b| _mm256_permute2f128_ps::<0x31>(a, b);
+    [
+        low(u0, u4),
+        low(u1, u5),
+        low(u2, u6),
+        low(u3, u7),
+        high(u0, u4),
+        high(u1, u5),
+        high(u2, u6),
+        high(u3, u7),
+    ]
+}
+
+/// For each 8-bit mask, the positions of its set bits, lowest first, then zeros: the lanes a
+/// compress keeps, in order.
+static COMPRESS: [[u8; 8]; 256] = {
+    let mut table = [[0u8; 8]; 256];
+    let mut mask = 0;
+    while mask < 256 {
+        let (mut bit, mut out) = (0, 0);
+        while bit < 8 {
+            if mask & (1 << bit) != 0 {
+                table[mask][out] = bit as u8;
+                out += 1;
+            }
+            bit += 1;
+        }
+        mask += 1;
+    }
+    table
+};

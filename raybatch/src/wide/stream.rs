@@ -17,7 +17,7 @@
 //!
 //! [`BatchOptions::single_ray_below`]: crate::batch::BatchOptions::single_ray_below
 
-use super::node::{WIDTH, WideNode, WideRay};
+use super::node::{Planes, WIDTH, WideNode, WideRay};
 use super::single::Stack;
 use super::{WideScratch, WideTree};
 use crate::accel::RayStream;
@@ -73,16 +73,35 @@ pub(crate) fn trace_stream<K: TriangleTest, V: Visitor>(
 }
 
 /// The walk's working memory (per thread, reused from stream to stream).
-#[derive(Debug, Default)]
+#[derive(Debug)]
 pub(crate) struct Lists {
+    /// Set if the CPU has AVX2: the split then tests eight rays at a time.
+    #[cfg(target_arch = "x86_64")]
+    avx2: Option<super::simd::Avx2>,
     /// The one-ray loop's stack, for lists finished one ray at a time.
     stack: Stack,
     /// The lists of ray indices (into the block's rays), used as a stack.
     ids: Vec<u32>,
-    /// Child masks of the rays of the list being split.
+    /// Child masks of the rays of the list being split, one byte per ray.
     masks: Vec<u8>,
+    /// The same, eight rays at a time: one byte per child, one bit per ray.
+    group_bits: Vec<u32>,
     /// The lists waiting.
     pending: Vec<Pending>,
+}
+
+impl Default for Lists {
+    fn default() -> Self {
+        Self {
+            #[cfg(target_arch = "x86_64")]
+            avx2: super::simd::Avx2::detect(),
+            stack: Stack::default(),
+            ids: Vec::new(),
+            masks: Vec::new(),
+            group_bits: Vec::new(),
+            pending: Vec::new(),
+        }
+    }
 }
 
 /// What a walk takes from the stream besides its rays.
@@ -126,9 +145,12 @@ fn trace_block<K: TriangleTest, V: Visitor>(
     visitor: &mut V,
 ) {
     let Lists {
+        #[cfg(target_arch = "x86_64")]
+        avx2,
         stack,
         ids,
         masks,
+        group_bits,
         pending,
     } = lists;
     // The buffer only grows (never zero-filled again); `Walk::top` is its logical end.
@@ -148,6 +170,8 @@ fn trace_block<K: TriangleTest, V: Visitor>(
         top: top as u32,
     });
     let mut walk = Walk {
+        #[cfg(target_arch = "x86_64")]
+        avx2: *avx2,
         tree,
         octant_mask: setup.octant_mask,
         single_ray_below: setup.single_ray_below,
@@ -156,6 +180,7 @@ fn trace_block<K: TriangleTest, V: Visitor>(
         ids,
         top,
         masks,
+        group_bits,
         pending,
         stack,
     };
@@ -167,6 +192,8 @@ fn trace_block<K: TriangleTest, V: Visitor>(
 
 /// The state of one stream's walk.
 struct Walk<'a> {
+    #[cfg(target_arch = "x86_64")]
+    avx2: Option<super::simd::Avx2>,
     tree: &'a WideTree,
     /// The rays' octant mask (0 when their octants differ: children in slot order).
     octant_mask: u8,
@@ -181,6 +208,7 @@ struct Walk<'a> {
     top: usize,
     /// Child masks of the rays of the list being split.
     masks: &'a mut Vec<u8>,
+    group_bits: &'a mut Vec<u32>,
     pending: &'a mut Vec<Pending>,
     /// The one-ray loop's stack.
     stack: &'a mut Stack,
@@ -215,32 +243,39 @@ impl Walk<'_> {
     #[inline(always)]
     fn split(&mut self, word: u32, start: usize, end: usize) {
         let node = &self.tree.nodes[word as usize];
-        let counts = match self.octant_mask {
+        let (grouped, counts) = match self.octant_mask {
             0 => self.child_masks::<false>(node, 0, start, end),
             // One octant for all: the planes are picked once for the whole list.
             mask => self.child_masks::<true>(node, mask.trailing_zeros(), start, end),
         };
-        // Child lists at the top of the buffer, in slot order. Each ray is written to every
-        // list (branch-free) and kept where its mask bit is set, so each list has one spare
-        // slot after it for the writes that are not kept.
+        // Child lists at the top of the buffer, in slot order. Writes run past a list's end
+        // (each ray is written to every list and kept where its mask bit is set; eight rays are
+        // written at once), so each list has `SPARE` slots after it.
         let top = self.top;
         let mut cursor = [0usize; WIDTH];
         let mut next = top;
         for slot in 0..WIDTH {
-            cursor[slot] = next;
-            next += counts[slot] + 1;
+            cursor[slot] = next - top;
+            next += counts[slot] + SPARE;
         }
         if self.ids.len() < next {
             self.ids.resize(next, 0);
         }
         self.top = next;
         let (lists, free) = self.ids.split_at_mut(top);
-        for (&ray, &mask) in lists[start..end].iter().zip(&self.masks[..end - start]) {
+        let rays = &lists[start..end];
+        #[cfg(target_arch = "x86_64")]
+        if let Some(avx2) = self.avx2.filter(|_| grouped > 0) {
+            let groups = &self.group_bits[..grouped / 8];
+            super::simd::write_lists(avx2, &rays[..grouped], groups, &mut cursor, free);
+        }
+        for (&ray, &mask) in rays[grouped..].iter().zip(&self.masks[grouped..]) {
             for (slot, at) in cursor.iter_mut().enumerate() {
-                free[*at - top] = ray;
+                free[*at] = ray;
                 *at += ((mask >> slot) & 1) as usize;
             }
         }
+        let cursor = cursor.map(|at| at + top);
         for slot in node.nearest_first(self.octant_mask).rev() {
             let (list_end, count) = (cursor[slot] as u32, counts[slot] as u32);
             if count > 0 {
@@ -254,9 +289,12 @@ impl Walk<'_> {
         }
     }
 
-    /// Each ray's child mask (which of the four boxes it enters), into `masks[..end - start]`,
-    /// and the number of rays entering each child. With `ONE_OCTANT` every ray has octant
-    /// `octant` and meets the node's planes the same way, so they are picked once.
+    /// Which of the four boxes each ray enters, and the number of rays entering each child.
+    /// Returns how many rays (a multiple of eight) went through the eight-at-a-time test, whose
+    /// masks are in `group_bits` (one `u32` per eight rays, one byte per child, one bit per
+    /// ray); the others' masks are in `masks[grouped..end - start]` (one byte per ray, one bit
+    /// per child). With `ONE_OCTANT` every ray has octant `octant` and meets the node's planes
+    /// the same way, so they are picked once.
     #[inline(always)]
     fn child_masks<const ONE_OCTANT: bool>(
         &mut self,
@@ -264,28 +302,31 @@ impl Walk<'_> {
         octant: u32,
         start: usize,
         end: usize,
-    ) -> [usize; WIDTH] {
+    ) -> (usize, [usize; WIDTH]) {
         let shared = node.planes(octant);
         let ids = &self.ids[start..end];
         if self.masks.len() < ids.len() {
             self.masks.resize(ids.len(), 0);
         }
         // Counts of the four children in 16-bit fields: one add per ray.
-        let mut packed = 0u64;
-        for (out, &i) in self.masks.iter_mut().zip(ids) {
-            let ray = &self.rays[i as usize];
-            let wide = WideRay::new(ray);
-            let planes = if ONE_OCTANT {
-                debug_assert_eq!(wide.octant, octant);
-                shared
-            } else {
-                node.planes(wide.octant)
-            };
-            let (mask, _) = wide.hits_planes(&planes, ray.tmax);
-            packed += SPREAD[mask as usize & 15];
-            *out = mask as u8;
+        let (mut grouped, mut packed) = (0, 0);
+        #[cfg(target_arch = "x86_64")]
+        if let (true, Some(avx2)) = (ONE_OCTANT, self.avx2) {
+            if self.group_bits.len() < ids.len() / 8 {
+                self.group_bits.resize(ids.len() / 8, 0);
+            }
+            (grouped, packed) =
+                super::simd::stream_masks(avx2, &shared, self.rays, ids, self.group_bits);
         }
-        [0, 1, 2, 3].map(|slot| ((packed >> (16 * slot)) & 0xFFFF) as usize)
+        packed += masks_one_by_one::<ONE_OCTANT>(
+            node,
+            (octant, &shared),
+            self.rays,
+            &ids[grouped..],
+            &mut self.masks[grouped..],
+        );
+        let counts = [0, 1, 2, 3].map(|slot| ((packed >> (16 * slot)) & 0xFFFF) as usize);
+        (grouped, counts)
     }
 
     /// Tests the leaf's triangles against every ray of the list, fetching each triangle once.
@@ -310,6 +351,38 @@ impl Walk<'_> {
     }
 }
 
+/// The child masks of the rays `ids` (into `rays`), into `masks`, one ray at a time: the
+/// portable way, and the rays left over by the eight-at-a-time version. Returns the number of
+/// rays entering each child in 16-bit fields. With `ONE_OCTANT` every ray has octant `octant`
+/// and meets the node's planes as `shared`.
+#[inline(always)]
+fn masks_one_by_one<const ONE_OCTANT: bool>(
+    node: &WideNode,
+    (octant, shared): (u32, &Planes),
+    rays: &[PreparedRay],
+    ids: &[u32],
+    masks: &mut [u8],
+) -> u64 {
+    let mut packed = 0u64;
+    for (out, &i) in masks.iter_mut().zip(ids) {
+        let ray = &rays[i as usize];
+        let wide = WideRay::new(ray);
+        let planes = if ONE_OCTANT {
+            debug_assert_eq!(wide.octant, octant);
+            *shared
+        } else {
+            node.planes(wide.octant)
+        };
+        let (mask, _) = wide.hits_planes(&planes, ray.tmax);
+        packed += SPREAD[mask as usize & 15];
+        *out = mask as u8;
+    }
+    packed
+}
+
+/// Slots after each child list for the writes past its end: eight rays are written at once.
+const SPARE: usize = 8;
+
 /// For each 4-bit child mask, a 1 in the 16-bit field of every child it enters.
 const SPREAD: [u64; 16] = {
     let mut table = [0u64; 16];
@@ -326,3 +399,126 @@ const SPREAD: [u64; 16] = {
     }
     table
 };
+
+#[cfg(all(test, target_arch = "x86_64"))]
+mod tests {
+    use glam::Vec3;
+
+    use super::super::simd::{self, Avx2};
+    use super::*;
+    use crate::geom::{Aabb, Ray};
+    use crate::test_support::TestRng;
+
+    /// A node of `used` random boxes (some flat), ordered.
+    fn random_node(rng: &mut TestRng, used: usize) -> WideNode {
+        let mut node = WideNode::empty();
+        for slot in 0..used {
+            let a = rng.vec3(2.0);
+            let mut b = a + rng.vec3(1.0).abs();
+            if slot == 1 {
+                b.z = a.z;
+            }
+            node.set(slot, &Aabb::new(a.min(b), a.max(b)), slot as u32);
+        }
+        node.order_children();
+        node
+    }
+
+    /// A ray of direction octant `octant`: some components zero (signed by the octant), some
+    /// origins on a box's plane, finite and infinite range ends.
+    fn random_ray(rng: &mut TestRng, octant: u32, node: &WideNode, k: usize) -> PreparedRay {
+        let mut dir = rng.vec3(1.0).abs();
+        if k % 5 == 0 {
+            dir[k % 3] = 0.0;
+        }
+        // Negated where the octant says negative (a zero becomes -0.0, of that octant too).
+        let mut dir = Vec3::from_array(std::array::from_fn(|a| {
+            if (octant >> a) & 1 != 0 {
+                -dir[a]
+            } else {
+                dir[a]
+            }
+        }));
+        if dir == Vec3::ZERO {
+            dir.x = if octant & 1 != 0 { -1.0 } else { 1.0 };
+        }
+        let mut origin = rng.vec3(3.0);
+        if k % 7 == 0 {
+            origin.y = node.slot_bounds(0).min.y;
+        }
+        let tmax = if k % 3 == 0 {
+            f32::INFINITY
+        } else {
+            rng.range(0.0, 5.0)
+        };
+        let tmin = if k % 4 == 0 { rng.range(0.0, 1.0) } else { 0.0 };
+        PreparedRay::new(&Ray::with_range(origin, dir, tmin, tmax.max(tmin))).unwrap()
+    }
+
+    /// The split's eight-at-a-time box tests and list writes (AVX2) give the same masks,
+    /// counts and lists as the one-ray-at-a-time loops, on lists of every length.
+    #[test]
+    fn eight_at_a_time_equals_one_at_a_time() {
+        let Some(avx2) = Avx2::detect() else {
+            let _ = std::io::Write::write_all(
+                &mut std::io::stderr(),
+                b"note: this CPU lacks AVX2: the split runs one ray at a time only\n",
+            );
+            return;
+        };
+        let mut rng = TestRng::new(5);
+        for round in 0..3000 {
+            let node = random_node(&mut rng, 1 + round % WIDTH);
+            let octant = (round % 8) as u32;
+            let rays: Vec<PreparedRay> = (0..64)
+                .map(|k| random_ray(&mut rng, octant, &node, k))
+                .collect();
+            assert!(rays.iter().all(|r| r.octant_mask == 1 << octant));
+            let n = round % 40;
+            let ids: Vec<u32> = (0..n).map(|_| rng.range(0.0, 63.99) as u32).collect();
+            let planes = node.planes(octant);
+
+            let mut bits = vec![0u32; n / 8];
+            let (grouped, packed) = simd::stream_masks(avx2, &planes, &rays, &ids, &mut bits);
+            assert_eq!(grouped, n / 8 * 8);
+            let mut masks = vec![0u8; n];
+            let expected = masks_one_by_one::<true>(
+                &node,
+                (octant, &planes),
+                &rays,
+                &ids[..grouped],
+                &mut masks,
+            );
+            assert_eq!(packed, expected, "counts, round {round}");
+            for (j, &mask) in masks[..grouped].iter().enumerate() {
+                let group = bits[j / 8];
+                let from_bits = (0..4).fold(0, |m, c| m | ((group >> (8 * c + j % 8)) & 1) << c);
+                assert_eq!(from_bits, u32::from(mask), "ray {j}, round {round}");
+            }
+
+            // Lists: each of the grouped rays to every child it enters, in order.
+            let counts = [0, 1, 2, 3].map(|c| ((packed >> (16 * c)) & 0xFFFF) as usize);
+            let mut cursor = [0usize; 4];
+            let mut next = 0;
+            for c in 0..4 {
+                cursor[c] = next;
+                next += counts[c] + SPARE;
+            }
+            let starts = cursor;
+            let mut lists = vec![u32::MAX; next];
+            simd::write_lists(avx2, &ids[..grouped], &bits, &mut cursor, &mut lists);
+            for c in 0..4 {
+                let expected: Vec<u32> = (0..grouped)
+                    .filter(|&j| masks[j] & (1 << c) != 0)
+                    .map(|j| ids[j])
+                    .collect();
+                assert_eq!(cursor[c] - starts[c], expected.len());
+                assert_eq!(
+                    lists[starts[c]..cursor[c]],
+                    expected,
+                    "child {c}, round {round}"
+                );
+            }
+        }
+    }
+}
