@@ -69,7 +69,7 @@ impl Avx2 {
 /// (`stream::masks_one_by_one`, compared by `stream::tests`): for the first `8 * (ids.len() / 8)`
 /// rays of `ids` (indices into `rays`, all of the octant `planes` were picked for), writes one
 /// `u32` per eight rays to `group_bits` (byte `k`: which of the eight enter child `k`) and
-/// returns how many rays that was and the number entering each child in 16-bit fields.
+/// returns how many rays that was and the number entering each child in 32-bit fields.
 ///
 /// Lane `j` computes exactly what [`WideRay::hits_planes`] computes for ray `j`, one child at a
 /// time: the same subtractions and products in the same order, the same NaN-keeping `max`/`min`
@@ -81,7 +81,7 @@ pub(crate) fn stream_masks(
     rays: &[PreparedRay],
     ids: &[u32],
     group_bits: &mut [u32],
-) -> (usize, u64) {
+) -> (usize, u128) {
     // SAFETY: an `Avx2` exists only if the CPU has AVX2.
     unsafe { stream_masks_avx2(planes, rays, ids, group_bits) }
 }
@@ -97,10 +97,10 @@ unsafe fn stream_masks_avx2(
     rays: &[PreparedRay],
     ids: &[u32],
     group_bits: &mut [u32],
-) -> (usize, u64) {
+) -> (usize, u128) {
     let groups = (ids.len() / 8).min(group_bits.len());
     let scale = _mm256_set1_ps(EXIT_SCALE);
-    let mut counts = 0u64;
+    let mut counts = 0u128;
     for g in 0..groups {
         let group = &ids[8 * g..8 * g + 8];
         // Each ray's first 32 bytes are its box-test row (see `PreparedRay`'s layout).
@@ -125,7 +125,7 @@ unsafe fn stream_masks_avx2(
                 far = _mm256_min_ps(exit, far);
             }
             let hit = _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(near, far)) as u32;
-            counts += u64::from(hit.count_ones()) << (16 * child);
+            counts += u128::from(hit.count_ones()) << (32 * child);
             bits |= hit << (8 * child);
         }
         group_bits[g] = bits;

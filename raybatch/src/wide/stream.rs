@@ -127,12 +127,15 @@ fn trace_blocks<K: TriangleTest, V: Visitor>(
     }
 }
 
-/// Rays per walk, so that their index lists stay in cache (512 to 32k measured the same on the
-/// bunny, by instruction and cache-miss counts).
-const BLOCK: usize = 8192;
+/// Rays per walk. Longer walks share each node among more rays, so more of the split runs
+/// eight rays at a time and fewer rays finish alone; their index lists outgrow the caches, but
+/// they are read in order. Measured (1M incoherent rays, one thread, nodes shared, best of 5 x 3
+/// passes, ms): fandisk 151 / 146 / 139 / 132 / 124 / 118 / 124 for 2k / 4k / 8k / 16k / 32k /
+/// 64k / 256k rays; bunny 187 / 168 / 168 for 8k / 64k / 256k.
+const BLOCK: usize = 1 << 16;
 
-// `split` counts a node's rays per child in 16-bit fields.
-const _: () = assert!(BLOCK <= u16::MAX as usize);
+// `split` counts a node's rays per child in 32-bit fields.
+const _: () = assert!(BLOCK <= u32::MAX as usize);
 
 /// Runs `rays` (batch positions `batch_ids`) through the tree, as one walk.
 #[inline(always)]
@@ -308,7 +311,7 @@ impl Walk<'_> {
         if self.masks.len() < ids.len() {
             self.masks.resize(ids.len(), 0);
         }
-        // Counts of the four children in 16-bit fields: one add per ray.
+        // Counts of the four children in 32-bit fields: one add per ray.
         let (mut grouped, mut packed) = (0, 0);
         #[cfg(target_arch = "x86_64")]
         if let (true, Some(avx2)) = (ONE_OCTANT, self.avx2) {
@@ -325,7 +328,7 @@ impl Walk<'_> {
             &ids[grouped..],
             &mut self.masks[grouped..],
         );
-        let counts = [0, 1, 2, 3].map(|slot| ((packed >> (16 * slot)) & 0xFFFF) as usize);
+        let counts = [0, 1, 2, 3].map(|slot| (packed >> (32 * slot)) as u32 as usize);
         (grouped, counts)
     }
 
@@ -353,7 +356,7 @@ impl Walk<'_> {
 
 /// The child masks of the rays `ids` (into `rays`), into `masks`, one ray at a time: the
 /// portable way, and the rays left over by the eight-at-a-time version. Returns the number of
-/// rays entering each child in 16-bit fields. With `ONE_OCTANT` every ray has octant `octant`
+/// rays entering each child in 32-bit fields. With `ONE_OCTANT` every ray has octant `octant`
 /// and meets the node's planes as `shared`.
 #[inline(always)]
 fn masks_one_by_one<const ONE_OCTANT: bool>(
@@ -362,8 +365,8 @@ fn masks_one_by_one<const ONE_OCTANT: bool>(
     rays: &[PreparedRay],
     ids: &[u32],
     masks: &mut [u8],
-) -> u64 {
-    let mut packed = 0u64;
+) -> u128 {
+    let mut packed = 0u128;
     for (out, &i) in masks.iter_mut().zip(ids) {
         let ray = &rays[i as usize];
         let wide = WideRay::new(ray);
@@ -383,15 +386,15 @@ fn masks_one_by_one<const ONE_OCTANT: bool>(
 /// Slots after each child list for the writes past its end: eight rays are written at once.
 const SPARE: usize = 8;
 
-/// For each 4-bit child mask, a 1 in the 16-bit field of every child it enters.
-const SPREAD: [u64; 16] = {
-    let mut table = [0u64; 16];
+/// For each 4-bit child mask, a 1 in the 32-bit field of every child it enters.
+const SPREAD: [u128; 16] = {
+    let mut table = [0u128; 16];
     let mut mask = 0;
     while mask < 16 {
         let mut slot = 0;
         while slot < 4 {
             if mask & (1 << slot) != 0 {
-                table[mask] |= 1 << (16 * slot);
+                table[mask] |= 1 << (32 * slot);
             }
             slot += 1;
         }
@@ -497,7 +500,7 @@ mod tests {
             }
 
             // Lists: each of the grouped rays to every child it enters, in order.
-            let counts = [0, 1, 2, 3].map(|c| ((packed >> (16 * c)) & 0xFFFF) as usize);
+            let counts = [0, 1, 2, 3].map(|c| (packed >> (32 * c)) as u32 as usize);
             let mut cursor = [0usize; 4];
             let mut next = 0;
             for c in 0..4 {
