@@ -33,7 +33,7 @@ impl BatchOrdering {
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 pub enum Interleave {
     /// The structure decides by its size: the 4-wide tree interleaves when its nodes, leaf
-    /// order and mesh pass 1 MiB, where waiting on memory dominates.
+    /// order and mesh pass 16 MiB, where waiting on memory dominates.
     #[default]
     Auto,
     /// Always walk rays side by side.

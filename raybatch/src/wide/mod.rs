@@ -153,12 +153,13 @@ impl Accel for WideTree {
 /// [`Interleave::Auto`] interleaves rays above this many bytes of nodes, leaf order and mesh.
 /// Below it the tree mostly stays in cache and sharing nodes does less work; above it each
 /// ray waits on memory at most nodes, and walking rays side by side hides the wait. Measured
-/// (one thread, 200k incoherent rays, best of 3-4 runs of `raybatch query --passes 3`, nodes
-/// shared vs side by side, on a loaded machine): teapot (0.3 MB) 55 vs 91 ms; bunny (4.0 MB)
-/// 133 vs 67 and 137 vs 102 ms since the one-ray loop pushes children without branches (it was
-/// at the crossover before, hence the earlier 4 MiB); city (4.9 MB) and terrain (54 MB) were
-/// already faster side by side (`cargo run --release -p raybatch-tools --example interleave`).
-const INTERLEAVE_ABOVE_BYTES: usize = 1 << 20;
+/// since the split tests eight rays at a time (one thread, incoherent rays, best of 4, nodes
+/// shared vs side by side, `cargo run --release -p raybatch-tools --example interleave -- SCENE
+/// RAYS`, ms): bunny (4.0 MB) 49 vs 49 on 200k rays, 183 vs 243 on 1M; city (4.9 MB) 34 vs
+/// 52 and 171 vs 259; terrain (54 MB) 119 vs 65 and 492 vs 371. The crossover lies between 5
+/// and 54 MB; 16 MiB is the geometric middle (it was 1 MiB when the split tested one ray at a
+/// time).
+const INTERLEAVE_ABOVE_BYTES: usize = 16 << 20;
 
 impl WideTree {
     /// What a walk through the tree may read: nodes, leaf order (and corners) and the mesh.
