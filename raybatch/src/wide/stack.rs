@@ -28,7 +28,7 @@ pub(crate) struct Pending {
 
 /// Slots a walk can use: a power of two of at least `3 * MAX_DEPTH + 1`.
 const DEPTH_SLOTS: usize = 512;
-const _: () = assert!(3 * MAX_DEPTH + 1 <= DEPTH_SLOTS && DEPTH_SLOTS.is_power_of_two());
+const _: () = assert!(3 * MAX_DEPTH < DEPTH_SLOTS && DEPTH_SLOTS.is_power_of_two());
 
 /// The one-ray loop's stack (see the module docs).
 #[derive(Clone, Debug)]

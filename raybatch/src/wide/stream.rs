@@ -431,7 +431,7 @@ mod tests {
     /// origins on a box's plane, finite and infinite range ends.
     fn random_ray(rng: &mut TestRng, octant: u32, node: &WideNode, k: usize) -> PreparedRay {
         let mut dir = rng.vec3(1.0).abs();
-        if k % 5 == 0 {
+        if k.is_multiple_of(5) {
             dir[k % 3] = 0.0;
         }
         // Negated where the octant says negative (a zero becomes -0.0, of that octant too).
@@ -446,15 +446,19 @@ mod tests {
             dir.x = if octant & 1 != 0 { -1.0 } else { 1.0 };
         }
         let mut origin = rng.vec3(3.0);
-        if k % 7 == 0 {
+        if k.is_multiple_of(7) {
             origin.y = node.slot_bounds(0).min.y;
         }
-        let tmax = if k % 3 == 0 {
+        let tmax = if k.is_multiple_of(3) {
             f32::INFINITY
         } else {
             rng.range(0.0, 5.0)
         };
-        let tmin = if k % 4 == 0 { rng.range(0.0, 1.0) } else { 0.0 };
+        let tmin = if k.is_multiple_of(4) {
+            rng.range(0.0, 1.0)
+        } else {
+            0.0
+        };
         PreparedRay::new(&Ray::with_range(origin, dir, tmin, tmax.max(tmin))).unwrap()
     }
 
