@@ -79,16 +79,11 @@ pub(crate) fn step<K: TriangleTest, V: Visitor>(
     } else {
         let node = &tree.nodes[item as usize];
         let (mask, entries) = wide_ray.hits(node, *tmax);
-        if mask != 0 {
-            // (Prefetching the pushed children's nodes here was measured slower: 366 vs 332 ms
-            // on 1M bunny rays, 228 vs 218 on the teapot, best of 12 passes.)
-            return Some(stack.push_hits_pop_nearest(
-                mask,
-                entries,
-                &node.child,
-                node.order(wide_ray.octant),
-            ));
-        }
+        // The hit children go on the stack, nearest on top, and the walk goes on with the
+        // top entry in front of the best hit: no branch on whether any child was hit (a
+        // quarter of the visits hit none, unpredictably). (Prefetching the pushed children's
+        // nodes was measured slower: 366 vs 332 ms on 1M bunny rays, 228 vs 218 on the teapot.)
+        stack.push_hits(mask, entries, &node.child, node.order(wide_ray.octant));
     }
     pop_in_front(stack, *tmax)
 }

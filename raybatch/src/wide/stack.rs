@@ -56,23 +56,14 @@ impl Stack {
 
     /// Pushes the children hit (bit `k` of `mask` for slot `k`, entering at `entries[k]`) in
     /// the node's order for the ray's octant (`order`, see
-    /// [`super::node::WideNode::order_children`]), farthest first, then pops the nearest and
-    /// returns its word. `mask` must not be 0.
+    /// [`super::node::WideNode::order_children`]), farthest first, so the nearest is on top.
     #[inline(always)]
-    pub(crate) fn push_hits_pop_nearest(
-        &mut self,
-        mask: u32,
-        entries: Vec4,
-        children: &[u32; 4],
-        order: u8,
-    ) -> u32 {
-        debug_assert!(mask != 0 && mask < 16);
-        debug_assert!(self.len + 3 <= DEPTH_SLOTS, "a walk deeper than MAX_DEPTH");
+    pub(crate) fn push_hits(&mut self, mask: u32, entries: Vec4, children: &[u32; 4], order: u8) {
+        debug_assert!(mask < 16);
+        debug_assert!(self.len + 4 <= DEPTH_SLOTS, "a walk deeper than MAX_DEPTH");
         let base = self.len % DEPTH_SLOTS;
         let top: &mut [Pending; 4] = (&mut self.slots[base..base + 4]).try_into().unwrap();
-        let (pushed, nearest) = push(top, mask, entries, children, order);
-        self.len = base + pushed - 1;
-        nearest
+        self.len = base + push(top, mask, entries, children, order);
     }
 
     /// The top entry, removed.
@@ -83,17 +74,11 @@ impl Stack {
     }
 }
 
-/// Writes the hit children to `top`, farthest first, and returns how many and the nearest
-/// one's word. Every slot in order is written at the top, which moves past it only if the slot
-/// was hit, so which children a ray hits never costs a mispredicted branch.
+/// Writes the hit children to `top`, farthest first, and returns how many. Every slot in order
+/// is written at the top, which moves past it only if the slot was hit, so which children a
+/// ray hits never costs a mispredicted branch.
 #[inline(always)]
-fn push(
-    top: &mut [Pending; 4],
-    mask: u32,
-    entries: Vec4,
-    children: &[u32; 4],
-    order: u8,
-) -> (usize, u32) {
+fn push(top: &mut [Pending; 4], mask: u32, entries: Vec4, children: &[u32; 4], order: u8) -> usize {
     let entries = entries.to_array();
     let mut pushed = 0;
     for k in (0..4).rev() {
@@ -104,7 +89,7 @@ fn push(
         };
         pushed += ((mask >> slot) & 1) as usize;
     }
-    (pushed, top[pushed - 1].word)
+    pushed
 }
 
 #[cfg(test)]
@@ -121,28 +106,28 @@ mod tests {
         all
     }
 
-    /// For every order and mask, popping returns the hit children nearest first in the order.
+    /// For every order and mask (none hit included), popping returns the hit children nearest
+    /// first in the order, with their entries.
     #[test]
     fn pops_the_hit_children_in_order() {
         let mut rng = TestRng::new(3);
         let mut stack = Stack::default();
         for order in permutations() {
-            for mask in 1..16u32 {
+            for mask in 0..16u32 {
                 let entries = Vec4::from_array(std::array::from_fn(|_| rng.range(0.0, 9.0)));
                 let children = std::array::from_fn(|_| rng.range(0.0, 1e6) as u32);
                 stack.reset();
                 stack.len = 5;
-                let nearest = stack.push_hits_pop_nearest(mask, entries, &children, order);
-                let mut popped = vec![(nearest, None)];
+                stack.push_hits(mask, entries, &children, order);
+                let mut popped = Vec::new();
                 while stack.len > 5 {
                     let pending = stack.pop().unwrap();
-                    popped.push((pending.word, Some(pending.entry)));
+                    popped.push((pending.word, pending.entry));
                 }
                 let expected: Vec<_> = (0..4)
                     .map(|k| ((order >> (2 * k)) & 3) as usize)
                     .filter(|&slot| mask & (1 << slot) != 0)
-                    .enumerate()
-                    .map(|(n, slot)| (children[slot], (n > 0).then_some(entries[slot])))
+                    .map(|slot| (children[slot], entries[slot]))
                     .collect();
                 assert_eq!(popped, expected, "order {order:08b} mask {mask:04b}");
             }
