@@ -146,10 +146,12 @@ impl<const KZ: usize> TriangleTest for WatertightAxis<KZ> {
         let mut u = cx * by - cy * bx;
         let mut v = ax * cy - ay * cx;
         let mut w = bx * ay - by * ax;
-        if u == 0.0 || v == 0.0 || w == 0.0 {
+        // Non-short-circuit `|` and `&`: one branch each instead of a chain, since whether a
+        // ray passes a triangle is unpredictable (the same values, so the same answers).
+        if (u == 0.0) | (v == 0.0) | (w == 0.0) {
             (u, v, w) = edge_functions_f64([ax, ay, bx, by, cx, cy]);
         }
-        if (u < 0.0 || v < 0.0 || w < 0.0) && (u > 0.0 || v > 0.0 || w > 0.0) {
+        if ((u < 0.0) | (v < 0.0) | (w < 0.0)) & ((u > 0.0) | (v > 0.0) | (w > 0.0)) {
             return None;
         }
         let det = u + v + w;
