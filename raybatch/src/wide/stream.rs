@@ -211,6 +211,8 @@ struct Walk<'a> {
     top: usize,
     /// Child masks of the rays of the list being split.
     masks: &'a mut Vec<u8>,
+    /// The same, eight rays at a time (written and read on x86-64 only).
+    #[cfg_attr(not(target_arch = "x86_64"), allow(dead_code))]
     group_bits: &'a mut Vec<u32>,
     pending: &'a mut Vec<Pending>,
     /// The one-ray loop's stack.
@@ -312,22 +314,26 @@ impl Walk<'_> {
             self.masks.resize(ids.len(), 0);
         }
         // Counts of the four children in 32-bit fields: one add per ray.
-        let (mut grouped, mut packed) = (0, 0);
         #[cfg(target_arch = "x86_64")]
-        if let (true, Some(avx2)) = (ONE_OCTANT, self.avx2) {
-            if self.group_bits.len() < ids.len() / 8 {
-                self.group_bits.resize(ids.len() / 8, 0);
+        let (grouped, packed) = match (ONE_OCTANT, self.avx2) {
+            (true, Some(avx2)) => {
+                if self.group_bits.len() < ids.len() / 8 {
+                    self.group_bits.resize(ids.len() / 8, 0);
+                }
+                super::simd::stream_masks(avx2, &shared, self.rays, ids, self.group_bits)
             }
-            (grouped, packed) =
-                super::simd::stream_masks(avx2, &shared, self.rays, ids, self.group_bits);
-        }
-        packed += masks_one_by_one::<ONE_OCTANT>(
-            node,
-            (octant, &shared),
-            self.rays,
-            &ids[grouped..],
-            &mut self.masks[grouped..],
-        );
+            _ => (0, 0),
+        };
+        #[cfg(not(target_arch = "x86_64"))]
+        let (grouped, packed) = (0, 0);
+        let packed = packed
+            + masks_one_by_one::<ONE_OCTANT>(
+                node,
+                (octant, &shared),
+                self.rays,
+                &ids[grouped..],
+                &mut self.masks[grouped..],
+            );
         let counts = [0, 1, 2, 3].map(|slot| (packed >> (32 * slot)) as u32 as usize);
         (grouped, counts)
     }
