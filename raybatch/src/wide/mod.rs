@@ -6,8 +6,10 @@
 //!   slab test).
 //! - `collapse`: binary tree to 4-wide tree.
 //! - `dispatch`: the one-ray loop's baseline and AVX2 copies, picked at run time.
-//! - `simd`: the box test with SSE intrinsics on x86-64 (its portable twin is in [`node`]).
-//! - `single`: the one-ray loop, nearest child first by entry distance.
+//! - `simd`: the box test with SSE intrinsics on x86-64 (its portable twin is in [`node`]), and
+//!   the stream split's AVX2 eight-ray box tests and list writes (twins in `stream`).
+//! - `single`: the one-ray loop, children in the node's precomputed order for the ray's octant.
+//! - `stack`: the one-ray loop's pending children, pushed without branches.
 //! - `stream`: a stream of rays going down once, split into index lists per child.
 //!
 //! It implements [`Accel`] directly (its walk is not the binary one). Triangles are the binary
