@@ -2,7 +2,7 @@
 //! With AVX2 (and the VEX encoding it brings) the box test and the triangle kernels need fewer
 //! register copies; `wide::tests` compares the two copies.
 
-use super::single::Stack;
+use super::stack::Stack;
 use super::{WideScratch, WideTree};
 use super::{interleaved, single, stream};
 use crate::accel::RayStream;

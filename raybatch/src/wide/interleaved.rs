@@ -15,7 +15,8 @@
 
 use super::WideTree;
 use super::node::WideRay;
-use super::single::{Stack, step};
+use super::single::step;
+use super::stack::Stack;
 use crate::accel::RayStream;
 use crate::bvh::nodes::leaf_word;
 use crate::geom::{PreparedRay, TriangleTest};

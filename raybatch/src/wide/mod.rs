@@ -40,7 +40,7 @@ use crate::geom::{Aabb, PreparedRay, TriangleTest};
 use crate::hit::Visitor;
 use crate::mesh::Mesh;
 use node::WideNode;
-use single::Stack;
+use stack::Stack;
 
 /// A 4-wide BVH over a mesh (see the module docs).
 #[derive(Clone, Debug)]

@@ -1,15 +1,16 @@
 //! The one-ray loop's pending children: a stack in a fixed array, pushed without branches in
 //! the node's precomputed order for the ray's octant.
 //!
-//! A visit pushes at most three children and goes on one level down, so a walk never holds
-//! more than three entries per level of its path, and the builder keeps every path shorter
-//! than [`MAX_DEPTH`]: `3 * MAX_DEPTH + 1` entries always fit in [`DEPTH_SLOTS`]. Every index
+//! A visit pushes at most four children and pops the nearest at once, going one level down, so
+//! a walk never holds more than three entries per level of its path plus the four of a push,
+//! and the builder keeps every path shorter than [`MAX_DEPTH`]: `3 * MAX_DEPTH + 4` entries
+//! always fit in [`DEPTH_SLOTS`]. Every index
 //! is taken modulo [`DEPTH_SLOTS`] into an array four slots longer (a push writes four slots
 //! whatever the mask), so no index can leave the array whatever `len` is: the compiler drops
 //! the bounds checks, and the depth bound keeps the index from wrapping (debug builds check it).
 //!
-//! The walk is bound by the latency of each node's load and of picking the next child, not by
-//! instruction count: a push that compressed the hit children in AVX2 registers (permute to the
+//! The walk is bound by the latency of each node's load and of picking the next child, and by
+//! mispredicted branches, more than by instruction count: a push that compressed the hit children in AVX2 registers (permute to the
 //! octant's order, a table of shuffles, one 32-byte store) took 95 fewer instructions per ray
 //! but ran 8% slower (fandisk, 1M incoherent rays: 222 against 206 ms, best of 5 x 3 passes),
 //! its choice of the next child going through a longer chain of shuffles; it was dropped.
@@ -26,9 +27,9 @@ pub(crate) struct Pending {
     pub(crate) entry: f32,
 }
 
-/// Slots a walk can use: a power of two of at least `3 * MAX_DEPTH + 1`.
+/// Slots a walk can use: a power of two of at least `3 * MAX_DEPTH + 4`.
 const DEPTH_SLOTS: usize = 512;
-const _: () = assert!(3 * MAX_DEPTH < DEPTH_SLOTS && DEPTH_SLOTS.is_power_of_two());
+const _: () = assert!(3 * MAX_DEPTH + 4 <= DEPTH_SLOTS && DEPTH_SLOTS.is_power_of_two());
 
 /// The one-ray loop's stack (see the module docs).
 #[derive(Clone, Debug)]

@@ -18,7 +18,7 @@
 //! [`BatchOptions::single_ray_below`]: crate::batch::BatchOptions::single_ray_below
 
 use super::node::{Planes, WIDTH, WideNode, WideRay};
-use super::single::Stack;
+use super::stack::Stack;
 use super::{WideScratch, WideTree};
 use crate::accel::RayStream;
 use crate::bvh::nodes::leaf_word;
@@ -52,21 +52,23 @@ pub(crate) fn trace_stream<K: TriangleTest, V: Visitor>(
         single_ray_below: stream.options().single_ray_below,
     };
     let WideScratch {
+        stack,
         lists,
         copies,
         batch_ids,
         ..
     } = scratch;
+    let scratch = (lists, stack);
     if let Some((rays, ids)) = stream.records() {
         // The tree's own layout (`StreamLayout::Records`): walk the records in place.
-        return trace_blocks::<K, V>(tree, setup, rays, ids, lists, visitor);
+        return trace_blocks::<K, V>(tree, setup, rays, ids, scratch, visitor);
     }
     // Lanes (a scene's stream): copy the rays out, walk, copy their range ends back.
     copies.clear();
     copies.extend((0..stream.len()).map(|i| stream.ray(i)));
     batch_ids.clear();
     batch_ids.extend((0..stream.len()).map(|i| stream.id(i)));
-    trace_blocks::<K, V>(tree, setup, copies, batch_ids, lists, visitor);
+    trace_blocks::<K, V>(tree, setup, copies, batch_ids, scratch, visitor);
     for (i, ray) in copies.iter().enumerate() {
         stream.set_tmax(i, ray.tmax);
     }
@@ -78,8 +80,6 @@ pub(crate) struct Lists {
     /// Set if the CPU has AVX2: the split then tests eight rays at a time.
     #[cfg(target_arch = "x86_64")]
     avx2: Option<super::simd::Avx2>,
-    /// The one-ray loop's stack, for lists finished one ray at a time.
-    stack: Stack,
     /// The lists of ray indices (into the block's rays), used as a stack.
     ids: Vec<u32>,
     /// Child masks of the rays of the list being split, one byte per ray.
@@ -95,7 +95,6 @@ impl Default for Lists {
         Self {
             #[cfg(target_arch = "x86_64")]
             avx2: super::simd::Avx2::detect(),
-            stack: Stack::default(),
             ids: Vec::new(),
             masks: Vec::new(),
             group_bits: Vec::new(),
@@ -112,18 +111,25 @@ struct Setup {
     single_ray_below: usize,
 }
 
-/// Runs `rays` (batch positions `ids`) through the tree in blocks of [`BLOCK`] rays.
+/// Runs `rays` (batch positions `ids`) through the tree in blocks of [`BLOCK`] rays, with the
+/// thread's lists and its one-ray stack (for lists finished one ray at a time).
 #[inline(always)]
 fn trace_blocks<K: TriangleTest, V: Visitor>(
     tree: &WideTree,
     setup: Setup,
     rays: &mut [PreparedRay],
     ids: &[u32],
-    lists: &mut Lists,
+    (lists, stack): (&mut Lists, &mut Stack),
     visitor: &mut V,
 ) {
     for (rays, ids) in rays.chunks_mut(BLOCK).zip(ids.chunks(BLOCK)) {
-        trace_block::<K, V>(tree, setup, rays, ids, lists, visitor);
+        trace_block::<K, V>(
+            tree,
+            setup,
+            (rays, ids),
+            (&mut *lists, &mut *stack),
+            visitor,
+        );
     }
 }
 
@@ -142,15 +148,13 @@ const _: () = assert!(BLOCK <= u32::MAX as usize);
 fn trace_block<K: TriangleTest, V: Visitor>(
     tree: &WideTree,
     setup: Setup,
-    rays: &mut [PreparedRay],
-    batch_ids: &[u32],
-    lists: &mut Lists,
+    (rays, batch_ids): (&mut [PreparedRay], &[u32]),
+    (lists, stack): (&mut Lists, &mut Stack),
     visitor: &mut V,
 ) {
     let Lists {
         #[cfg(target_arch = "x86_64")]
         avx2,
-        stack,
         ids,
         masks,
         group_bits,
