@@ -185,26 +185,17 @@ unsafe fn write_lists_avx2(
 fn transpose(rows: [__m256; 8]) -> [__m256; 8] {
     let [r0, r1, r2, r3, r4, r5, r6, r7] = rows;
     // Pairs of rows interleaved, then quads, within each 128-bit half...
-    let (t0, t1) = (_mm256_unpacklo_ps(r0, r1), _mm256_unpackhi_ps(r0, r1));
-    let (t2, t3) = (_mm256_unpacklo_ps(r2, r3), _mm256_unpackhi_ps(r2, r3));
-    let (t4, t5) = (_mm256_unpacklo_ps(r4, r5), _mm256_unpackhi_ps(r4, r5));
-    let (t6, t7) = (_mm256_unpacklo_ps(r6, r7), _mm256_unpackhi_ps(r6, r7));
-    let (u0, u1) = (
-        _mm256_shuffle_ps::<0x44>(t0, t2),
-        _mm256_shuffle_ps::<0xEE>(t0, t2),
-    );
-    let (u2, u3) = (
-        _mm256_shuffle_ps::<0x44>(t1, t3),
-        _mm256_shuffle_ps::<0xEE>(t1, t3),
-    );
-    let (u4, u5) = (
-        _mm256_shuffle_ps::<0x44>(t4, t6),
-        _mm256_shuffle_ps::<0xEE>(t4, t6),
-    );
-    let (u6, u7) = (
-        _mm256_shuffle_ps::<0x44>(t5, t7),
-        _mm256_shuffle_ps::<0xEE>(t5, t7),
-    );
+    let pairs = |a, b| (_mm256_unpacklo_ps(a, b), _mm256_unpackhi_ps(a, b));
+    let quads = |a, b| {
+        (
+            _mm256_shuffle_ps::<0x44>(a, b),
+            _mm256_shuffle_ps::<0xEE>(a, b),
+        )
+    };
+    let ((t0, t1), (t2, t3)) = (pairs(r0, r1), pairs(r2, r3));
+    let ((t4, t5), (t6, t7)) = (pairs(r4, r5), pairs(r6, r7));
+    let ((u0, u1), (u2, u3)) = (quads(t0, t2), quads(t1, t3));
+    let ((u4, u5), (u6, u7)) = (quads(t4, t6), quads(t5, t7));
     // ...then the halves: rows 0-3 low, rows 4-7 high.
     let low = |a, b| _mm256_permute2f128_ps::<0x20>(a, b);
     let high = |a, b| _mm256_permute2f128_ps::<0x31>(a, b);
