@@ -108,7 +108,8 @@ fn check_size(slots: usize, binary_nodes: usize) -> Result<(), BuildError> {
 /// Per-thread scratch of the wide traversals.
 #[derive(Debug, Default)]
 pub struct WideScratch {
-    /// One-ray stack: child word and entry distance.
+    /// The one-ray loop's stack: for rays traced alone, and for the stream engine's lists
+    /// finished one ray at a time.
     stack: Stack,
     /// Stream: the index lists and what splitting them needs.
     lists: stream::Lists,
