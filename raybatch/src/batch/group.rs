@@ -8,7 +8,7 @@
 use super::lanes::Lanes;
 use super::options::BatchOrdering;
 use super::rays::PreparedRays;
-use crate::geom::ray::flush_subnormals;
+use crate::geom::ray::flushed_if_valid;
 use crate::geom::{PreparedRay, Ray, octant};
 
 /// Number of groups: the 8 octants (a single group when unordered).
@@ -84,17 +84,19 @@ fn scatter(
 /// Pass 1 of the counting sort: each ray's group into `keys` (`GROUPS` for an invalid ray)
 /// and where each group starts.
 fn group_starts(rays: &[Ray], ordering: BatchOrdering, keys: &mut Vec<u8>) -> [usize; GROUPS + 1] {
-    keys.clear();
     let mut counts = [0usize; GROUPS + 1];
-    for ray in rays {
-        let key = match (ray.validate(), ordering) {
-            (Err(_), _) => GROUPS,
-            (Ok(()), BatchOrdering::ByOctant) => octant(flush_subnormals(ray.dir)) as usize,
-            (Ok(()), BatchOrdering::Unordered) => 0,
+    keys.clear();
+    // One pass, no branch between the validity checks (`flushed_if_valid`), no capacity check
+    // per key (`extend` from an exactly sized iterator).
+    keys.extend(rays.iter().map(|ray| {
+        let key = match (flushed_if_valid(ray), ordering) {
+            (None, _) => GROUPS,
+            (Some(dir), BatchOrdering::ByOctant) => octant(dir) as usize,
+            (Some(_), BatchOrdering::Unordered) => 0,
         };
         counts[key] += 1;
-        keys.push(key as u8);
-    }
+        key as u8
+    }));
     let mut starts = [0usize; GROUPS + 1];
     for g in 0..GROUPS {
         starts[g + 1] = starts[g] + counts[g];

@@ -123,6 +123,7 @@ impl Lanes {
             octant_mask: (axes >> 8) as u8,
             kz: axes as u8,
             shear: Vec3::new(f(SX), f(SY), f(SZ)),
+            pad: [0; 6],
         }
     }
 

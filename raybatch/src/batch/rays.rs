@@ -38,7 +38,7 @@ impl PreparedRays {
     /// The sign-filter constants of the rays in slots `slot..slot + 4`.
     pub(crate) fn quad(&self, slot: usize) -> RayQuad {
         let rays: &[PreparedRay; 4] = self.rays[slot..slot + 4].try_into().unwrap();
-        RayQuad::from_rays(rays)
+        RayQuad::from_rays(rays.each_ref())
     }
 
     /// Moves the rays of slots `start..end` that touch `bounds` (the conservative slab test at

@@ -115,6 +115,17 @@ pub(crate) fn flush_subnormals(v: Vec3) -> Vec3 {
     Vec3::from(Vec3A::select(tiny, Vec3A::ZERO.copysign(v), v))
 }
 
+/// The ray's direction with subnormals flushed ([`flush_subnormals`]) if the ray is valid
+/// ([`Ray::validate`]'s checks, without branching between them), else `None`.
+#[inline]
+pub(crate) fn flushed_if_valid(ray: &Ray) -> Option<Vec3> {
+    let finite = Vec3A::from(ray.origin).is_finite_mask() & Vec3A::from(ray.dir).is_finite_mask();
+    let dir = flush_subnormals(ray.dir);
+    // Written so that NaN fails every comparison and lands in the error.
+    let range_ok = (ray.tmin >= 0.0) & (ray.tmin <= ray.tmax) & ray.tmin.is_finite();
+    (finite.all() & (dir != Vec3::ZERO) & range_ok).then_some(dir)
+}
+
 /// Index (0..8) of a direction's octant: bit 0 set if `x` is negative, bit 1 for `y`, bit 2 for
 /// `z`. The sign bit is used, so `-0.0` counts as negative, consistently everywhere.
 pub fn octant(dir: Vec3) -> u32 {
@@ -151,6 +162,10 @@ pub struct PreparedRay {
     /// Watertight kernel: the axis of largest `|dir|`, which becomes z after the shear;
     /// x and y are the next two axes cyclically (`kx = (kz + 1) % 3`, `ky = (kz + 2) % 3`).
     pub kz: u8,
+    /// The rest of the cache line, zero: set so that the 4-wide stream's leaves may load the
+    /// second half of the record as eight values (`wide::simd::RayOctet`) and read no
+    /// uninitialised byte.
+    pub(crate) pad: [u8; 6],
 }
 
 // The box test's row: origin x, y, z, inverse direction x, y, z, `tmin`, `tmax`.
@@ -158,7 +173,8 @@ const _: () = {
     use std::mem::offset_of;
     assert!(offset_of!(PreparedRay, origin) == 0 && offset_of!(PreparedRay, inv_dir) == 12);
     assert!(offset_of!(PreparedRay, tmin) == 24 && offset_of!(PreparedRay, tmax) == 28);
-    assert!(size_of::<PreparedRay>() == 64);
+    assert!(offset_of!(PreparedRay, shear) == 44 && offset_of!(PreparedRay, kz) == 57);
+    assert!(size_of::<PreparedRay>() == 64 && offset_of!(PreparedRay, pad) == 58);
 };
 
 impl PreparedRay {
@@ -166,14 +182,7 @@ impl PreparedRay {
     /// The same checks as [`Ray::validate`], written to flush the direction once.
     #[inline]
     pub fn new(ray: &Ray) -> Option<Self> {
-        let finite =
-            Vec3A::from(ray.origin).is_finite_mask() & Vec3A::from(ray.dir).is_finite_mask();
-        let dir = flush_subnormals(ray.dir);
-        let range_ok = ray.tmin >= 0.0 && ray.tmin <= ray.tmax && ray.tmin.is_finite();
-        if !finite.all() || dir == Vec3::ZERO || !range_ok {
-            return None;
-        }
-        Some(Self::from_flushed(ray, dir))
+        flushed_if_valid(ray).map(|dir| Self::from_flushed(ray, dir))
     }
 
     pub(crate) fn from_valid(ray: &Ray) -> Self {
@@ -183,7 +192,7 @@ impl PreparedRay {
 
     /// The constants of a valid ray whose direction, subnormals flushed, is `dir`.
     #[inline]
-    fn from_flushed(ray: &Ray, dir: Vec3) -> Self {
+    pub(crate) fn from_flushed(ray: &Ray, dir: Vec3) -> Self {
         let abs = dir.abs();
         // Selects rather than branches: the dominant axis of random rays is unpredictable.
         let x_wins = (abs.x >= abs.y) & (abs.x >= abs.z);
@@ -208,6 +217,7 @@ impl PreparedRay {
             octant_mask: 1u8 << octant(dir),
             kz: kz as u8,
             shear,
+            pad: [0; 6],
         }
     }
 }

@@ -32,9 +32,11 @@ pub(crate) struct RayQuad {
 }
 
 impl RayQuad {
-    /// The constants of four prepared rays.
-    pub(crate) fn from_rays(rays: &[PreparedRay; 4]) -> Self {
-        let lanes = |f: &dyn Fn(&PreparedRay) -> f32| Vec4::from_array(rays.each_ref().map(f));
+    /// The constants of four prepared rays (they need not be next to each other in memory:
+    /// the 4-wide stream engine's lists hold ray indices).
+    #[inline(always)]
+    pub(crate) fn from_rays(rays: [&PreparedRay; 4]) -> Self {
+        let lanes = |f: &dyn Fn(&PreparedRay) -> f32| Vec4::from_array(rays.map(f));
         RayQuad {
             origin: [
                 lanes(&|r| r.origin.x),
@@ -43,8 +45,8 @@ impl RayQuad {
             ],
             shear_x: lanes(&|r| r.shear.x),
             shear_y: lanes(&|r| r.shear.y),
-            kz_is_x: BVec4A::from(rays.each_ref().map(|r| r.kz == 0)),
-            kz_is_y: BVec4A::from(rays.each_ref().map(|r| r.kz == 1)),
+            kz_is_x: BVec4A::from(rays.map(|r| r.kz == 0)),
+            kz_is_y: BVec4A::from(rays.map(|r| r.kz == 1)),
         }
     }
 
@@ -94,7 +96,7 @@ mod tests {
     use crate::test_support::TestRng;
 
     fn quad(rays: &[PreparedRay; 4]) -> RayQuad {
-        RayQuad::from_rays(rays)
+        RayQuad::from_rays(rays.each_ref())
     }
 
     /// The filter never clears a lane the scalar kernel hits, over random rays of every axis

@@ -70,7 +70,7 @@ pub(crate) fn trace_stream<B, K, V>(
 }
 
 /// Most triangles a leaf pass keeps at once; larger triangle ranges go in several passes.
-const LEAF_BATCH: usize = 16;
+pub(crate) const LEAF_BATCH: usize = 16;
 
 /// Up to [`LEAF_BATCH`] triangles of a leaf, fetched once to be tested against many rays: what
 /// every stream engine does at a leaf.
@@ -102,10 +102,19 @@ impl LeafBatch {
     /// union: the watertight sign filter ([`crate::geom::sign_filter`]) proves the rest miss.
     #[inline(always)]
     pub(crate) fn may_hit(&self, quad: &RayQuad) -> ([u32; LEAF_BATCH], u32) {
+        self.may_hit_with(|corners| quad.may_hit(corners))
+    }
+
+    /// [`LeafBatch::may_hit`] with any filter: `filter(corners)` gives the lanes that may hit.
+    #[inline(always)]
+    pub(crate) fn may_hit_with(
+        &self,
+        filter: impl Fn(&[Vec3; 3]) -> u32,
+    ) -> ([u32; LEAF_BATCH], u32) {
         let mut masks = [0u32; LEAF_BATCH];
         let mut any = 0;
         for (mask, (_, corners)) in masks.iter_mut().zip(&self.triangles[..self.len]) {
-            *mask = quad.may_hit(corners);
+            *mask = filter(corners);
             any |= *mask;
         }
         (masks, any)

@@ -8,7 +8,10 @@
 //! boxes are read once for the whole list. Child lists are pushed in the node's precomputed
 //! order for the stream's octant, farther child first, so the nearer ones are walked first and
 //! closest-hit rays shrink early. A leaf's triangles are fetched once and tested against every
-//! ray of its list. Lists shorter than [`BatchOptions::single_ray_below`] finish their subtree
+//! ray of its list, eight rays at a time through the watertight kernel's sign filter first
+//! (AVX2, `simd::RayOctet`; four at a time elsewhere), which proves most misses, so the scalar
+//! kernel runs only where a hit is possible (fandisk, 1M incoherent rays, one thread: 114-120
+//! -> 99-103 ms, paired runs). Lists shorter than [`BatchOptions::single_ray_below`] finish their subtree
 //! with the one-ray loop.
 //!
 //! The index lists live in one buffer used as a stack: a node's child lists are written above
@@ -22,9 +25,10 @@ use super::stack::Stack;
 use super::{WideScratch, WideTree};
 use crate::accel::RayStream;
 use crate::bvh::nodes::leaf_word;
+use crate::geom::sign_filter::RayQuad;
 use crate::geom::{PreparedRay, TriangleTest};
 use crate::hit::Visitor;
-use crate::traverse::stream::LeafBatch;
+use crate::traverse::stream::{LEAF_BATCH, LeafBatch};
 
 /// A list of rays waiting to enter a child: its word, its rays (`ids[start..end]`) and where
 /// the buffer ends once it and its siblings are all that is pending above it.
@@ -343,6 +347,9 @@ impl Walk<'_> {
     }
 
     /// Tests the leaf's triangles against every ray of the list, fetching each triangle once.
+    /// With the watertight kernel, rays go four at a time through the sign filter first
+    /// ([`LeafBatch::may_hit`]), which proves most misses without the scalar kernel; each ray
+    /// still meets its triangles in slot order, so it sees the same hits in the same order.
     #[inline(always)]
     fn test_leaf<K: TriangleTest, V: Visitor>(
         &mut self,
@@ -353,13 +360,73 @@ impl Walk<'_> {
     ) {
         let (first, count) = leaf_word::unpack(word);
         for batch in LeafBatch::fetch(first..first + count, |slot| self.tree.triangle(slot)) {
-            for k in start..end {
+            let filtered = if K::SIGN_FILTER {
+                self.test_quads::<K, V>(&batch, start, end, visitor)
+            } else {
+                start
+            };
+            for k in filtered..end {
                 let i = self.ids[k] as usize;
                 let ray = &mut self.rays[i];
                 let mut tmax = ray.tmax;
                 batch.test::<K, V>(ray, self.batch_ids[i], &mut tmax, visitor);
                 ray.tmax = tmax;
             }
+        }
+    }
+
+    /// The list's rays through the sign filter, eight at a time with AVX2, then four at a
+    /// time, the scalar kernel only where a hit is possible. Returns where the rays it left
+    /// (fewer than four) start.
+    #[inline(always)]
+    fn test_quads<K: TriangleTest, V: Visitor>(
+        &mut self,
+        batch: &LeafBatch,
+        start: usize,
+        end: usize,
+        visitor: &mut V,
+    ) -> usize {
+        let mut k = start;
+        #[cfg(target_arch = "x86_64")]
+        if let Some(avx2) = self.avx2 {
+            while k + 8 <= end {
+                let eight: &[u32; 8] = self.ids[k..k + 8].try_into().unwrap();
+                let octet = super::simd::RayOctet::gather(avx2, self.rays, eight);
+                let (masks, any) = batch.may_hit_with(|tri| octet.may_hit(avx2, tri));
+                let eight = eight.map(|i| i as usize);
+                self.test_kept::<K, V>(batch, (&masks, any), &eight, visitor);
+                k += 8;
+            }
+        }
+        while k + 4 <= end {
+            let four: [usize; 4] = std::array::from_fn(|j| self.ids[k + j] as usize);
+            let quad = RayQuad::from_rays(four.map(|i| &self.rays[i]));
+            let (masks, any) = batch.may_hit_with(|tri| quad.may_hit(tri));
+            self.test_kept::<K, V>(batch, (&masks, any), &four, visitor);
+            k += 4;
+        }
+        k
+    }
+
+    /// Runs the scalar kernel for ray `rays[lane]` on the triangles of `batch` whose `masks`
+    /// have bit `lane`, for each lane set in `any`.
+    #[inline(always)]
+    fn test_kept<K: TriangleTest, V: Visitor>(
+        &mut self,
+        batch: &LeafBatch,
+        (masks, any): (&[u32; LEAF_BATCH], u32),
+        rays: &[usize],
+        visitor: &mut V,
+    ) {
+        let mut lanes = any;
+        while lanes != 0 {
+            let lane = lanes.trailing_zeros() as usize;
+            lanes &= lanes - 1;
+            let i = rays[lane];
+            let ray = &mut self.rays[i];
+            let mut tmax = ray.tmax;
+            batch.test_lane::<K, V>((masks, lane), ray, self.batch_ids[i], &mut tmax, visitor);
+            ray.tmax = tmax;
         }
     }
 }
@@ -537,5 +604,49 @@ mod tests {
                 );
             }
         }
+    }
+
+    /// The eight-ray sign filter (AVX2) gives, lane by lane, the four-ray filter's answer
+    /// ([`RayQuad::may_hit`], which `sign_filter::tests` checks against the kernel), over rays
+    /// of every dominant axis and triangles with corners and edges on a ray.
+    #[test]
+    fn eight_ray_sign_filter_equals_two_four_ray_ones() {
+        let Some(avx2) = Avx2::detect() else {
+            return;
+        };
+        let mut rng = TestRng::new(9);
+        let mut axes = [0usize; 3];
+        for round in 0..20_000 {
+            let rays: Vec<PreparedRay> = (0..16)
+                .map(|k| {
+                    let mut dir = rng.vec3(1.0);
+                    if k % 5 == 0 {
+                        dir[k % 3] = 0.0;
+                    }
+                    let ray = Ray::new(rng.vec3(2.0), dir);
+                    PreparedRay::new(&ray).unwrap_or_else(|| {
+                        PreparedRay::new(&Ray::new(ray.origin, Vec3::Y)).unwrap()
+                    })
+                })
+                .collect();
+            let ids: [u32; 8] = std::array::from_fn(|_| rng.range(0.0, 15.99) as u32);
+            let at = |j: usize| &rays[ids[j] as usize];
+            let mut tri = [rng.vec3(3.0), rng.vec3(3.0), rng.vec3(3.0)];
+            match round % 4 {
+                // A corner on a ray, and a ray through the middle of an edge.
+                1 => tri[0] = at(round % 8).origin + at(round % 8).dir * 1.5,
+                2 => tri[1] = 2.0 * (at(round % 8).origin + at(round % 8).dir) - tri[0],
+                _ => {}
+            }
+            let octet = simd::RayOctet::gather(avx2, &rays, &ids);
+            let quads = [0, 4].map(|j| RayQuad::from_rays(std::array::from_fn(|k| at(j + k))));
+            let expected = quads[0].may_hit(&tri) | quads[1].may_hit(&tri) << 4;
+            assert_eq!(octet.may_hit(avx2, &tri), expected, "round {round}");
+            (0..8).for_each(|j| axes[at(j).kz as usize] += 1);
+        }
+        assert!(
+            axes.iter().all(|&n| n > 10_000),
+            "every dominant axis: {axes:?}"
+        );
     }
 }
