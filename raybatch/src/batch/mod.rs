@@ -8,6 +8,7 @@
 //!   structures that partition rays (binary trees, scenes).
 //! - `rays`: the same rays as an array of prepared records, for structures that walk rays by
 //!   index (the 4-wide tree, grids, the kd-tree).
+//! - `prepare_avx2`: the grouping's validity checks and prepared records eight rays at a time.
 //! - [`partition`]: one box against many lanes with move-to-front (AVX-512, AVX2, portable).
 //! - `scratch`: the per-thread arrays, kept in the thread's workspace.
 //!
@@ -19,6 +20,9 @@ pub(crate) mod group;
 pub(crate) mod lanes;
 pub mod options;
 pub mod partition;
+#[cfg(target_arch = "x86_64")]
+#[allow(unsafe_code)]
+pub(crate) mod prepare_avx2;
 pub(crate) mod rays;
 pub(crate) mod scratch;
 

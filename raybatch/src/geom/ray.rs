@@ -11,6 +11,7 @@ use glam::{Vec3, Vec3A};
 
 /// A ray `origin + t * dir` for `t` in `[tmin, tmax]`.
 #[derive(Clone, Copy, Debug, PartialEq)]
+#[repr(C)]
 pub struct Ray {
     /// Where the ray starts (at `t = 0`).
     pub origin: Vec3,
@@ -21,6 +22,13 @@ pub struct Ray {
     /// Largest accepted `t` (inclusive); `f32::INFINITY` for an unbounded ray.
     pub tmax: f32,
 }
+
+// Eight `f32`s in this order: batches load eight rays as eight rows (`batch::prepare_avx2`).
+const _: () = {
+    use std::mem::offset_of;
+    assert!(offset_of!(Ray, origin) == 0 && offset_of!(Ray, dir) == 12);
+    assert!(offset_of!(Ray, tmin) == 24 && offset_of!(Ray, tmax) == 28 && size_of::<Ray>() == 32);
+};
 
 /// Why a ray can never hit anything. Queries treat such rays as misses; this says why.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

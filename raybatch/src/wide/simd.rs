@@ -30,6 +30,7 @@ use std::arch::x86_64::{
 use glam::{Vec3, Vec4};
 
 use super::node::{Planes, WideRay};
+pub(crate) use crate::traverse::avx2::Avx2;
 use crate::geom::PreparedRay;
 use crate::geom::aabb::EXIT_SCALE;
 #[cfg(doc)]
@@ -56,18 +57,6 @@ pub(crate) fn slabs(ray: &WideRay, planes: &Planes, tmax: f32) -> (u32, Vec4) {
         }
         let mask = _mm_movemask_ps(_mm_cmple_ps(near, far)) as u32;
         (mask, near.into())
-    }
-}
-
-/// Proof that the CPU has AVX2: only [`Avx2::detect`] makes one, so the safe functions that take
-/// it may run AVX2 code.
-#[derive(Clone, Copy, Debug)]
-pub(crate) struct Avx2(());
-
-impl Avx2 {
-    /// `Some` if the CPU has AVX2.
-    pub(crate) fn detect() -> Option<Self> {
-        std::arch::is_x86_feature_detected!("avx2").then_some(Self(()))
     }
 }
 
@@ -300,7 +289,7 @@ impl RayOctet {
 /// Eight rows of eight values to eight columns: `out[c]` lane `r` is `rows[r]` lane `c`.
 #[inline]
 #[target_feature(enable = "avx2")]
-fn transpose(rows: [__m256; 8]) -> [__m256; 8] {
+pub(crate) fn transpose(rows: [__m256; 8]) -> [__m256; 8] {
     let [r0, r1, r2, r3, r4, r5, r6, r7] = rows;
     // Pairs of rows interleaved, then quads, within each 128-bit half...
     let pairs = |a, b| (_mm256_unpacklo_ps(a, b), _mm256_unpackhi_ps(a, b));
