@@ -59,7 +59,8 @@ const NO_TRIANGLE: u32 = u32::MAX;
 /// What a query does with each hit. Structures call it for every triangle hit in a ray's
 /// current range; the query decides what to keep.
 ///
-/// `ray` is the ray's index in the batch (0 for a single-ray query). `tmax` is the ray's current
+/// `ray` is the id the stream gave the ray (0 for a single-ray query; in a batch, its prepared
+/// slot, which the batched queries map back to the ray's position). `tmax` is the ray's current
 /// range end, owned by the structure: a visitor shrinks it to make the structure skip what lies
 /// behind (a closest-hit search sets it to the best `t`), or sets it to `-inf` to end the ray (an
 /// any-hit search, or "first N hits"), after which the structure reports nothing more for it.
@@ -137,10 +138,13 @@ impl Visitor for Any<'_> {
     }
 }
 
-/// Reports every hit to `f(offset + ray, hit)`.
+/// Reports every hit of ray `ray` to `f(offset + positions[ray], hit)`.
 pub struct Every<'a, F> {
-    /// Added to the ray index (the position of this chunk in the caller's batch).
+    /// Added to the ray's position (the position of this chunk in the caller's batch).
     pub offset: usize,
+    /// The position in the chunk of each ray id the walk reports (a batch's streams number
+    /// rays by their prepared slot).
+    pub positions: &'a [u32],
     /// The caller's callback.
     pub f: &'a F,
 }
@@ -148,7 +152,7 @@ pub struct Every<'a, F> {
 impl<F: Fn(usize, Hit)> Visitor for Every<'_, F> {
     #[inline(always)]
     fn visit(&mut self, ray: u32, hit: Hit, _: &mut f32) {
-        (self.f)(self.offset + ray as usize, hit);
+        (self.f)(self.offset + self.positions[ray as usize] as usize, hit);
     }
 }
 

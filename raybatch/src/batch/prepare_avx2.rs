@@ -11,10 +11,10 @@
 
 use std::arch::x86_64::{
     __m256, __m256i, _CMP_EQ_OQ, _CMP_GE_OQ, _CMP_LE_OQ, _CMP_LT_OQ, _mm256_and_ps,
-    _mm256_andnot_ps, _mm256_blendv_ps, _mm256_castps_si256,
-    _mm256_castsi256_ps, _mm256_cmp_ps, _mm256_div_ps, _mm256_loadu_ps, _mm256_or_si256,
-    _mm256_set1_epi32, _mm256_set1_ps, _mm256_setzero_ps, _mm256_sllv_epi32, _mm256_slli_epi32,
-    _mm256_srli_epi32, _mm256_store_ps, _mm256_storeu_si256,
+    _mm256_andnot_ps, _mm256_blendv_ps, _mm256_castps_si256, _mm256_castsi256_ps, _mm256_cmp_ps,
+    _mm256_div_ps, _mm256_loadu_ps, _mm256_or_si256, _mm256_set1_epi32, _mm256_set1_ps,
+    _mm256_setzero_ps, _mm256_slli_epi32, _mm256_sllv_epi32, _mm256_srli_epi32, _mm256_store_ps,
+    _mm256_storeu_si256,
 };
 
 use crate::geom::{PreparedRay, Ray};
@@ -103,7 +103,11 @@ unsafe fn prepare_avx2(rays: &[Ray; 8], out: &mut [PreparedRay; 8]) {
     let x = pick(d[1], d[2], d[0]);
     let y = pick(d[2], d[0], d[1]);
     let one = _mm256_set1_ps(1.0);
-    let shear = [_mm256_div_ps(x, z), _mm256_div_ps(y, z), _mm256_div_ps(one, z)];
+    let shear = [
+        _mm256_div_ps(x, z),
+        _mm256_div_ps(y, z),
+        _mm256_div_ps(one, z),
+    ];
     let inv = d.map(|c| _mm256_div_ps(one, c));
     let int = |v: i32| _mm256_castsi256_ps(_mm256_set1_epi32(v));
     let kz = _mm256_castps_si256(pick(int(0), int(1), int(2)));
@@ -112,7 +116,9 @@ unsafe fn prepare_avx2(rays: &[Ray; 8], out: &mut [PreparedRay; 8]) {
         _mm256_sllv_epi32(_mm256_set1_epi32(1), octant),
         _mm256_slli_epi32::<8>(kz),
     );
-    let first = transpose([origin[0], origin[1], origin[2], inv[0], inv[1], inv[2], tmin, tmax]);
+    let first = transpose([
+        origin[0], origin[1], origin[2], inv[0], inv[1], inv[2], tmin, tmax,
+    ]);
     let second = transpose([
         d[0],
         d[1],
@@ -221,7 +227,10 @@ mod tests {
             f32::MAX,
         ];
         let pick = rng.range(0.0, 30.0) as usize;
-        SPECIAL.get(pick).copied().unwrap_or_else(|| rng.range(-3.0, 3.0))
+        SPECIAL
+            .get(pick)
+            .copied()
+            .unwrap_or_else(|| rng.range(-3.0, 3.0))
     }
 
     fn random_ray(rng: &mut TestRng, round: usize) -> Ray {
@@ -233,7 +242,8 @@ mod tests {
             2 => (ray.tmin, ray.tmax) = (special(rng).abs(), special(rng)),
             // Ties between the axes' magnitudes (the dominant axis's tie rule).
             _ => {
-                let pick = |rng: &mut TestRng| [-1.0, -0.5, 0.5, 1.0][rng.range(0.0, 3.99) as usize];
+                let pick =
+                    |rng: &mut TestRng| [-1.0, -0.5, 0.5, 1.0][rng.range(0.0, 3.99) as usize];
                 ray.dir = Vec3::new(pick(rng), pick(rng), pick(rng));
             }
         }
@@ -267,7 +277,11 @@ mod tests {
                 match PreparedRay::new(ray) {
                     Some(expected) => {
                         valid += 1;
-                        let key = if by_octant { octant(expected.dir) as u8 } else { 0 };
+                        let key = if by_octant {
+                            octant(expected.dir) as u8
+                        } else {
+                            0
+                        };
                         assert_eq!(keys[j], key, "{ray:?}");
                         assert_eq!(bits(&records[j]), bits(&expected), "{ray:?}");
                     }
@@ -278,6 +292,9 @@ mod tests {
                 }
             }
         }
-        assert!(valid > 50_000 && invalid > 10_000, "{valid} valid, {invalid} invalid");
+        assert!(
+            valid > 50_000 && invalid > 10_000,
+            "{valid} valid, {invalid} invalid"
+        );
     }
 }

@@ -1,6 +1,7 @@
 //! The batched engine's per-thread arrays, reused from call to call (they live in the thread's
 //! [`crate::workspace::Workspace`]).
 
+use super::group::Slots;
 use super::lanes::Lanes;
 use super::rays::PreparedRays;
 use crate::hit::Hit;
@@ -12,8 +13,12 @@ pub(crate) struct BatchScratch {
     pub lanes: Lanes,
     /// ...or in records (for the others: [`crate::accel::StreamLayout`]).
     pub rays: PreparedRays,
-    /// Closest-hit answers of the chunk, by ray.
+    /// Where the chunk's rays went (the streams' ray ids are slots).
+    pub slots: Slots,
+    /// Closest-hit answers of the chunk, by slot.
     pub best: Vec<Hit>,
+    /// Any-hit answers of the chunk, by slot.
+    pub occluded: Vec<bool>,
     /// Each ray's group while grouping.
     pub keys: Vec<u8>,
 }

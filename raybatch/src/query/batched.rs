@@ -14,7 +14,7 @@
 
 use crate::accel::{Accel, RayStream, Storage, StreamLayout};
 use crate::batch::chunks::for_each_chunk;
-use crate::batch::group::{self, Groups};
+use crate::batch::group::{self, Groups, Slots};
 use crate::batch::options::BatchOptions;
 use crate::batch::partition::Partitioner;
 use crate::batch::scratch::BatchScratch;
@@ -89,31 +89,47 @@ impl<S> Chunk<'_, S> {
     }
 }
 
+/// The workspace's answer arrays for one chunk, by prepared slot (the streams' ray ids), and
+/// where each ray went.
+struct Answers<'w> {
+    slots: &'w Slots,
+    best: &'w mut Vec<Hit>,
+    occluded: &'w mut Vec<bool>,
+}
+
 /// Prepares `rays` in this thread's workspace and runs `f` on them and on the workspace's
-/// closest-hit answer array.
+/// answer arrays.
 fn with_chunk<A: Accel, R>(
     rays: &[Ray],
     options: &BatchOptions,
     partitioner: Partitioner,
-    f: impl FnOnce(Chunk<'_, A::Scratch>, &mut Vec<Hit>) -> R,
+    f: impl FnOnce(Chunk<'_, A::Scratch>, Answers<'_>) -> R,
 ) -> R {
     Workspace::with_local(|workspace| {
         let (batch, scratch) = workspace.parts::<A::Scratch>();
         let BatchScratch {
             lanes,
             rays: records,
+            slots,
             best,
+            occluded,
             keys,
         } = batch;
+        let grouping = (&mut *keys, &mut *slots);
         let (groups, storage) = match A::STREAM_LAYOUT {
             StreamLayout::Lanes => (
-                group::prepare(rays, options.ordering, lanes, keys),
+                group::prepare(rays, options.ordering, lanes, grouping),
                 Storage::Lanes(lanes),
             ),
             StreamLayout::Records => (
-                group::prepare_records(rays, options.ordering, records, keys),
+                group::prepare_records(rays, options.ordering, records, grouping),
                 Storage::Records(records),
             ),
+        };
+        let answers = Answers {
+            slots,
+            best,
+            occluded,
         };
         let chunk = Chunk {
             groups,
@@ -122,7 +138,7 @@ fn with_chunk<A: Accel, R>(
             options,
             partitioner,
         };
-        f(chunk, best)
+        f(chunk, answers)
     })
 }
 
@@ -150,12 +166,17 @@ pub trait BatchQueries: Accel {
         }
         let partitioner = options.partition.checked();
         for_each_chunk(rays, hits, options, |_, rays, hits| {
-            with_chunk::<Self, _>(rays, options, partitioner, |mut chunk, best| {
+            with_chunk::<Self, _>(rays, options, partitioner, |mut chunk, answers| {
+                let Answers { slots, best, .. } = answers;
+                // "No hit before +inf": a hit at the ray's own `tmax` still wins (`Closest`
+                // compares it with the record's `tmax`, then by the tie rule with this), so
+                // the answers equal those of `Hit::none_before(ray.tmax)`, without a gather.
                 best.clear();
-                best.extend(rays.iter().map(|r| Hit::none_before(r.tmax)));
+                best.resize(slots.positions.len(), Hit::none_before(f32::INFINITY));
                 chunk.trace(self, &mut Closest { best });
-                for (out, best) in hits.iter_mut().zip(best.iter()) {
-                    *out = best.found();
+                // In position order: sequential writes (invalid rays have no slot: a miss).
+                for (out, &slot) in hits.iter_mut().zip(&slots.of_position) {
+                    *out = best.get(slot as usize).and_then(|hit| hit.found());
                 }
             })
         });
@@ -183,10 +204,17 @@ pub trait BatchQueries: Accel {
             return Ok(());
         }
         let partitioner = options.partition.checked();
-        for_each_chunk(rays, occluded, options, |_, rays, occluded| {
-            occluded.fill(false);
-            with_chunk::<Self, _>(rays, options, partitioner, |mut chunk, _| {
+        for_each_chunk(rays, occluded, options, |_, rays, out| {
+            with_chunk::<Self, _>(rays, options, partitioner, |mut chunk, answers| {
+                let Answers {
+                    slots, occluded, ..
+                } = answers;
+                occluded.clear();
+                occluded.resize(slots.positions.len(), false);
                 chunk.trace(self, &mut Any { occluded });
+                for (out, &slot) in out.iter_mut().zip(&slots.of_position) {
+                    *out = occluded.get(slot as usize).copied().unwrap_or(false);
+                }
             })
         });
         Ok(())
@@ -216,8 +244,16 @@ pub trait BatchQueries: Accel {
         // No output slice: chunks are matched with zero-sized slots.
         let mut slots = vec![(); rays.len()];
         for_each_chunk(rays, &mut slots, options, |offset, rays, _| {
-            with_chunk::<Self, _>(rays, options, partitioner, |mut chunk, _| {
-                chunk.trace(self, &mut Every { offset, f: &f });
+            with_chunk::<Self, _>(rays, options, partitioner, |mut chunk, answers| {
+                let positions = &answers.slots.positions;
+                chunk.trace(
+                    self,
+                    &mut Every {
+                        offset,
+                        positions,
+                        f: &f,
+                    },
+                );
             })
         });
     }

@@ -30,11 +30,11 @@ use std::arch::x86_64::{
 use glam::{Vec3, Vec4};
 
 use super::node::{Planes, WideRay};
-pub(crate) use crate::traverse::avx2::Avx2;
 use crate::geom::PreparedRay;
 use crate::geom::aabb::EXIT_SCALE;
 #[cfg(doc)]
 use crate::geom::sign_filter::RayQuad;
+pub(crate) use crate::traverse::avx2::Avx2;
 
 /// See [`WideRay::hits_planes`].
 #[inline(always)]
