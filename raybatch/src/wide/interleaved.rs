@@ -13,15 +13,14 @@
 //! nodes in the same order, with the same kernels and the same range ends, as it would alone:
 //! answers are those of the one-ray loop, bit for bit. Prefetching never changes a value.
 
-use super::WideTree;
 use super::node::WideRay;
 use super::single::step;
 use super::stack::Stack;
+use super::{LEAF_READY, WideTree};
 use crate::accel::RayStream;
 use crate::bvh::nodes::leaf_word;
 use crate::geom::{PreparedRay, TriangleTest};
 use crate::hit::Visitor;
-use crate::prefetch::prefetch;
 
 /// Rays walked side by side: enough turns between two turns of one ray to cover a miss to
 /// memory (a turn is some 100 instructions), few enough that their states stay in L1.
@@ -125,7 +124,7 @@ fn turn<K: TriangleTest, V: Visitor>(
     visitor: &mut V,
 ) -> bool {
     if leaf_word::is_leaf(w.item) && w.stage < LEAF_READY {
-        w.stage = prefetch_leaf(tree, w.item, w.stage);
+        w.stage = tree.prefetch_leaf(w.item, w.stage);
         return true;
     }
     let ray = (&w.ray, &w.wide, w.id);
@@ -134,35 +133,12 @@ fn turn<K: TriangleTest, V: Visitor>(
             w.item = item;
             w.stage = 0;
             if leaf_word::is_leaf(item) {
-                w.stage = prefetch_leaf(tree, item, 0);
+                w.stage = tree.prefetch_leaf(item, 0);
             } else {
-                prefetch_node(tree, item);
+                tree.prefetch_node(item);
             }
             true
         }
         None => false,
     }
-}
-
-/// A leaf's stage once its whole read chain is prefetched.
-const LEAF_READY: u8 = 2;
-
-/// Prefetches link `stage` of the read chain of leaf `word`; returns the next stage
-/// ([`LEAF_READY`] when the corners are on their way).
-#[inline(always)]
-fn prefetch_leaf(tree: &WideTree, word: u32, stage: u8) -> u8 {
-    let (first, count) = leaf_word::unpack(word);
-    if tree.triangles.prefetch(first..first + count, stage) {
-        LEAF_READY
-    } else {
-        stage + 1
-    }
-}
-
-/// Prefetches both cache lines of node `index`.
-#[inline(always)]
-fn prefetch_node(tree: &WideTree, index: u32) {
-    let node = &tree.nodes[index as usize];
-    prefetch(node);
-    prefetch(&node.bounds[4]);
 }

@@ -39,6 +39,7 @@ use crate::bvh::nodes::leaf_word;
 use crate::geom::{Aabb, PreparedRay, TriangleTest};
 use crate::hit::Visitor;
 use crate::mesh::Mesh;
+use crate::prefetch::prefetch;
 use node::WideNode;
 use stack::Stack;
 
@@ -86,7 +87,31 @@ impl WideTree {
     fn triangle(&self, slot: u32) -> (u32, [Vec3; 3]) {
         self.triangles.get(slot)
     }
+
+    /// Prefetches link `stage` of the read chain of leaf `word` (see
+    /// [`LeafTriangles::prefetch`]); returns the next stage ([`LEAF_READY`] when the corners
+    /// are on their way).
+    #[inline(always)]
+    fn prefetch_leaf(&self, word: u32, stage: u8) -> u8 {
+        let (first, count) = leaf_word::unpack(word);
+        if self.triangles.prefetch(first..first + count, stage) {
+            LEAF_READY
+        } else {
+            stage + 1
+        }
+    }
+
+    /// Prefetches both cache lines of node `index`.
+    #[inline(always)]
+    fn prefetch_node(&self, index: u32) {
+        let node = &self.nodes[index as usize];
+        prefetch(node);
+        prefetch(&node.bounds[4]);
+    }
 }
+
+/// A leaf's stage once its whole read chain is prefetched.
+const LEAF_READY: u8 = 2;
 
 /// The format's name in error messages.
 const FORMAT: &str = "4-wide nodes (128 B)";

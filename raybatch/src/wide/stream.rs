@@ -197,6 +197,7 @@ fn trace_block<K: TriangleTest, V: Visitor>(
     };
     while let Some(list) = walk.pending.pop() {
         walk.top = list.top as usize;
+        walk.prefetch_pending();
         walk.visit::<K, V>(list, visitor);
     }
 }
@@ -228,6 +229,28 @@ struct Walk<'a> {
 }
 
 impl Walk<'_> {
+    /// Prefetches what the next two lists waiting read first: the node or the leaf's
+    /// triangles of the next (the second link of a leaf's read chain, whose first was
+    /// prefetched a visit earlier), the first link of the one after. A visit tests many rays,
+    /// long enough to hide the wait (bunny, 1M incoherent rays, one thread, batched, paired
+    /// runs: 152-164 -> 142-146 ms; fandisk 94-100 -> 90-91; teapot 85 -> 81).
+    #[inline(always)]
+    fn prefetch_pending(&self) {
+        let n = self.pending.len();
+        if let Some(next) = n.checked_sub(1).map(|k| self.pending[k].word) {
+            if leaf_word::is_leaf(next) {
+                self.tree.prefetch_leaf(next, 1);
+            } else {
+                self.tree.prefetch_node(next);
+            }
+        }
+        if let Some(after) = n.checked_sub(2).map(|k| self.pending[k].word) {
+            if leaf_word::is_leaf(after) {
+                self.tree.prefetch_leaf(after, 0);
+            }
+        }
+    }
+
     /// The rays of `list` touch the box of its word: test its triangles, split them among its
     /// children, or finish its subtree one ray at a time when they are few.
     #[inline(always)]
