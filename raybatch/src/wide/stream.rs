@@ -244,10 +244,9 @@ impl Walk<'_> {
                 self.tree.prefetch_node(next);
             }
         }
-        if let Some(after) = n.checked_sub(2).map(|k| self.pending[k].word) {
-            if leaf_word::is_leaf(after) {
-                self.tree.prefetch_leaf(after, 0);
-            }
+        let after = n.checked_sub(2).map(|k| self.pending[k].word);
+        if let Some(after) = after.filter(|&word| leaf_word::is_leaf(word)) {
+            self.tree.prefetch_leaf(after, 0);
         }
     }
 
