@@ -116,6 +116,8 @@ fn scatter(
             next[key] += 1;
         }
     };
+    // Rays done eight at a time (none without AVX2).
+    #[cfg_attr(not(target_arch = "x86_64"), allow(unused_mut))]
     let mut done = 0;
     #[cfg(target_arch = "x86_64")]
     if let Some(avx2) = Avx2::detect() {
@@ -141,6 +143,8 @@ fn group_starts(rays: &[Ray], ordering: BatchOrdering, keys: &mut Vec<u8>) -> [u
     let by_octant = matches!(ordering, BatchOrdering::ByOctant);
     keys.clear();
     keys.resize(rays.len(), 0);
+    // Rays done eight at a time (none without AVX2).
+    #[cfg_attr(not(target_arch = "x86_64"), allow(unused_mut))]
     let mut done = 0;
     #[cfg(target_arch = "x86_64")]
     if let Some(avx2) = Avx2::detect() {
