@@ -94,6 +94,8 @@ pub(crate) struct Lists {
     pending: Vec<Pending>,
 }
 
+// Derivable where the AVX2 field is compiled out.
+#[cfg_attr(not(target_arch = "x86_64"), allow(clippy::derivable_impls))]
 impl Default for Lists {
     fn default() -> Self {
         Self {
