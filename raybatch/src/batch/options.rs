@@ -81,8 +81,9 @@ pub struct BatchOptions {
     /// thread, 1M incoherent rays, `raybatch query --batched`, best of 2 x 3 passes): closest
     /// hit fandisk 131 -> 95 ms, teapot 129 -> 83, bunny 166 -> 134; line-of-sight any hit
     /// fandisk 74 -> 48, bunny 93 -> 70. The stream splits jump between rays by id, and a
-    /// chunk's prepared rays outgrow what the caches and the TLB cover long before node
-    /// sharing stops paying (chunks of 256k rays measured the same, 64k and below slower).
+    /// chunk's prepared rays outgrow the caches long before node sharing stops paying (chunks
+    /// of 256k rays measured the same, 64k and below slower). Not the TLB: with transparent
+    /// huge pages on, 1M-ray chunks still took 131 ms on the fandisk.
     pub max_chunk: usize,
     /// A node reached by fewer rays than this finishes its subtree one ray at a time.
     pub single_ray_below: usize,
