@@ -25,6 +25,10 @@ use crate::batch::rays::PreparedRays;
 use crate::geom::sign_filter::RayQuad;
 use crate::geom::{Aabb, PreparedRay, TriangleTest};
 use crate::hit::Visitor;
+#[cfg(target_arch = "x86_64")]
+use crate::traverse::avx2::Avx2;
+#[cfg(target_arch = "x86_64")]
+use crate::wide::simd::RayOctet;
 
 /// An acceleration structure: the traversal every query is written on (see the module docs).
 pub trait Accel: Sync + Sized {
@@ -205,6 +209,21 @@ impl<'a> RayStream<'a> {
         match &self.storage {
             Storage::Lanes(lanes) => lanes.origin(lane),
             Storage::Records(records) => records.rays[lane].origin,
+        }
+    }
+
+    /// The sign-filter constants of rays `i..i + 8`, eight at a time with AVX2; panics unless
+    /// `i + 8 <= len()`.
+    #[cfg(target_arch = "x86_64")]
+    #[inline(always)]
+    pub(crate) fn octet(&self, avx2: Avx2, i: usize) -> RayOctet {
+        assert!(i + 8 <= self.len(), "rays {i}..{} of {}", i + 8, self.len());
+        match &self.storage {
+            Storage::Lanes(lanes) => RayOctet::from_lanes(avx2, lanes, self.start + i),
+            Storage::Records(records) => {
+                let slots = std::array::from_fn(|j| (self.start + i + j) as u32);
+                RayOctet::gather(avx2, &records.rays, &slots)
+            }
         }
     }
 

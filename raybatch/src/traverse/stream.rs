@@ -21,6 +21,8 @@ use crate::bvh::{Bvh, BvhScratch};
 use crate::geom::sign_filter::RayQuad;
 use crate::geom::{PreparedRay, TriangleTest};
 use crate::hit::Visitor;
+#[cfg(target_arch = "x86_64")]
+use crate::traverse::avx2::Avx2;
 
 /// Runs every ray of `stream` through the tree.
 pub(crate) fn trace_stream<B, K, V>(
@@ -139,9 +141,9 @@ impl LeafBatch {
         test_triangles::<K, V>(ray, id, kept, tmax, visitor);
     }
 
-    /// Tests rays `0..active` of `stream` against the batch four at a time through the sign
-    /// filter, the scalar kernel only where a hit is possible. Returns how many rays it
-    /// handled (a multiple of 4); the rest are the caller's.
+    /// Tests rays `0..active` of `stream` against the batch through the sign filter, eight
+    /// rays at a time with AVX2, then four at a time, the scalar kernel only where a hit is
+    /// possible. Returns how many rays it handled (a multiple of 4); the rest are the caller's.
     #[inline]
     fn test_quads<K: TriangleTest, V: Visitor>(
         &self,
@@ -149,18 +151,44 @@ impl LeafBatch {
         active: usize,
         visitor: &mut V,
     ) -> usize {
-        let handled = active / 4 * 4;
-        for i in (0..handled).step_by(4) {
-            let (masks, any) = self.may_hit(&stream.quad(i));
-            for lane in (0..4).filter(|lane| any & (1 << lane) != 0) {
-                let ray = stream.ray(i + lane);
-                let mut tmax = ray.tmax;
-                let id = stream.id(i + lane);
-                self.test_lane::<K, V>((&masks, lane), &ray, id, &mut tmax, visitor);
-                stream.set_tmax(i + lane, tmax);
+        let mut i = 0;
+        #[cfg(target_arch = "x86_64")]
+        if let Some(avx2) = Avx2::detect() {
+            while i + 8 <= active {
+                let octet = stream.octet(avx2, i);
+                let filtered = self.may_hit_with(|corners| octet.may_hit(avx2, corners));
+                self.test_kept::<K, V>(stream, i, filtered, visitor);
+                i += 8;
             }
         }
-        handled
+        while i + 4 <= active {
+            let filtered = self.may_hit(&stream.quad(i));
+            self.test_kept::<K, V>(stream, i, filtered, visitor);
+            i += 4;
+        }
+        i
+    }
+
+    /// Runs the scalar kernel for ray `first + lane` of `stream` on the triangles whose
+    /// `masks` have bit `lane`, for each lane set in `any`.
+    #[inline(always)]
+    fn test_kept<K: TriangleTest, V: Visitor>(
+        &self,
+        stream: &mut RayStream<'_>,
+        first: usize,
+        (masks, any): ([u32; LEAF_BATCH], u32),
+        visitor: &mut V,
+    ) {
+        let mut lanes = any;
+        while lanes != 0 {
+            let lane = lanes.trailing_zeros() as usize;
+            lanes &= lanes - 1;
+            let ray = stream.ray(first + lane);
+            let mut tmax = ray.tmax;
+            let id = stream.id(first + lane);
+            self.test_lane::<K, V>((&masks, lane), &ray, id, &mut tmax, visitor);
+            stream.set_tmax(first + lane, tmax);
+        }
     }
 
     /// Tests ray `ray` (number `id`, current range end `tmax`) against the batch.

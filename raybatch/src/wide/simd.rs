@@ -30,6 +30,7 @@ use std::arch::x86_64::{
 use glam::{Vec3, Vec4};
 
 use super::node::{Planes, WideRay};
+use crate::batch::lanes::{self, Lanes};
 use crate::geom::PreparedRay;
 use crate::geom::aabb::EXIT_SCALE;
 #[cfg(doc)]
@@ -189,6 +190,39 @@ pub(crate) struct RayOctet {
 }
 
 impl RayOctet {
+    /// The constants of the eight rays in lanes `lane..lane + 8` of `lanes` (the binary
+    /// trees' stream layout: one load per column). Panics if a lane is out of range.
+    #[inline(always)]
+    pub(crate) fn from_lanes(_: Avx2, lanes: &Lanes, lane: usize) -> Self {
+        // SAFETY: an `Avx2` exists only if the CPU has AVX2.
+        unsafe { Self::from_lanes_avx2(lanes, lane) }
+    }
+
+    /// See [`RayOctet::from_lanes`].
+    ///
+    /// # Safety
+    /// The CPU must support AVX2.
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    unsafe fn from_lanes_avx2(lanes: &Lanes, lane: usize) -> Self {
+        let column = |c: usize| {
+            let eight: &[u32; 8] = lanes.cols[c][lane..lane + 8].try_into().unwrap();
+            // SAFETY: `eight` is 32 readable bytes; an unaligned load is allowed.
+            unsafe { _mm256_loadu_si256(eight.as_ptr().cast::<__m256i>()) }
+        };
+        let float = |c: usize| _mm256_castsi256_ps(column(c));
+        // The low byte of the axes column is `kz`.
+        let kz = _mm256_and_si256(column(lanes::AXES), _mm256_set1_epi32(0xFF));
+        let is = |axis: i32| _mm256_castsi256_ps(_mm256_cmpeq_epi32(kz, _mm256_set1_epi32(axis)));
+        Self {
+            origin: [float(lanes::OX), float(lanes::OY), float(lanes::OZ)],
+            shear_x: float(lanes::SX),
+            shear_y: float(lanes::SY),
+            kz_is_x: is(0),
+            kz_is_y: is(1),
+        }
+    }
+
     /// The constants of rays `ids` (indices into `rays`). Panics if an index is out of range.
     #[inline(always)]
     pub(crate) fn gather(_: Avx2, rays: &[PreparedRay], ids: &[u32; 8]) -> Self {

@@ -510,6 +510,7 @@ mod tests {
 
     use super::super::simd::{self, Avx2};
     use super::*;
+    use crate::batch::lanes::Lanes;
     use crate::geom::{Aabb, Ray};
     use crate::test_support::TestRng;
 
@@ -632,7 +633,8 @@ mod tests {
 
     /// The eight-ray sign filter (AVX2) gives, lane by lane, the four-ray filter's answer
     /// ([`RayQuad::may_hit`], which `sign_filter::tests` checks against the kernel), over rays
-    /// of every dominant axis and triangles with corners and edges on a ray.
+    /// of every dominant axis and triangles with corners and edges on a ray, with the eight
+    /// rays' constants gathered from records and loaded from lanes.
     #[test]
     fn eight_ray_sign_filter_equals_two_four_ray_ones() {
         let Some(avx2) = Avx2::detect() else {
@@ -666,6 +668,16 @@ mod tests {
             let quads = [0, 4].map(|j| RayQuad::from_rays(std::array::from_fn(|k| at(j + k))));
             let expected = quads[0].may_hit(&tri) | quads[1].may_hit(&tri) << 4;
             assert_eq!(octet.may_hit(avx2, &tri), expected, "round {round}");
+            // The same rays in lanes (the binary trees' layout), from lane 3 on.
+            let mut lanes = Lanes::default();
+            lanes.reset(11);
+            (0..8).for_each(|j| lanes.set(3 + j, at(j), j as u32));
+            let from_lanes = simd::RayOctet::from_lanes(avx2, &lanes, 3);
+            assert_eq!(
+                from_lanes.may_hit(avx2, &tri),
+                expected,
+                "lanes, round {round}"
+            );
             (0..8).for_each(|j| axes[at(j).kz as usize] += 1);
         }
         assert!(
