@@ -142,8 +142,11 @@ impl LeafBatch {
     }
 
     /// Tests rays `0..active` of `stream` against the batch through the sign filter, eight
-    /// rays at a time with AVX2, then four at a time, the scalar kernel only where a hit is
-    /// possible. Returns how many rays it handled (a multiple of 4); the rest are the caller's.
+    /// rays at a time with AVX2, else four at a time, the scalar kernel only where a hit is
+    /// possible. The last, partial group is filtered too, as the last full window of rays with
+    /// the lanes already tested masked off (a remainder tested without the filter cost more
+    /// than the whole window). Returns how many rays it handled: all of them, unless there are
+    /// fewer than one window; the rest are the caller's.
     #[inline]
     fn test_quads<K: TriangleTest, V: Visitor>(
         &self,
@@ -151,22 +154,45 @@ impl LeafBatch {
         active: usize,
         visitor: &mut V,
     ) -> usize {
-        let mut i = 0;
         #[cfg(target_arch = "x86_64")]
         if let Some(avx2) = Avx2::detect() {
-            while i + 8 <= active {
+            return self.test_windows::<8, K, V>(stream, active, visitor, |stream, i| {
                 let octet = stream.octet(avx2, i);
-                let filtered = self.may_hit_with(|corners| octet.may_hit(avx2, corners));
-                self.test_kept::<K, V>(stream, i, filtered, visitor);
-                i += 8;
-            }
+                self.may_hit_with(|corners| octet.may_hit(avx2, corners))
+            });
         }
-        while i + 4 <= active {
-            let filtered = self.may_hit(&stream.quad(i));
+        self.test_windows::<4, K, V>(stream, active, visitor, |stream, i| {
+            self.may_hit(&stream.quad(i))
+        })
+    }
+
+    /// [`LeafBatch::test_quads`] with windows of `N` rays: `filter(stream, i)` gives the masks
+    /// of rays `i..i + N`.
+    #[inline(always)]
+    fn test_windows<const N: usize, K: TriangleTest, V: Visitor>(
+        &self,
+        stream: &mut RayStream<'_>,
+        active: usize,
+        visitor: &mut V,
+        filter: impl Fn(&RayStream<'_>, usize) -> ([u32; LEAF_BATCH], u32),
+    ) -> usize {
+        if active < N {
+            return 0;
+        }
+        let mut i = 0;
+        while i + N <= active {
+            let filtered = filter(stream, i);
             self.test_kept::<K, V>(stream, i, filtered, visitor);
-            i += 4;
+            i += N;
         }
-        i
+        if i < active {
+            let window = active - N;
+            let (mut masks, any) = filter(stream, window);
+            let fresh = !0u32 << (i - window);
+            masks.iter_mut().for_each(|mask| *mask &= fresh);
+            self.test_kept::<K, V>(stream, window, (masks, any & fresh), visitor);
+        }
+        active
     }
 
     /// Runs the scalar kernel for ray `first + lane` of `stream` on the triangles whose
