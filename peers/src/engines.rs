@@ -457,6 +457,108 @@ pub fn obvhs_bvh2(mesh: &Mesh, rays: &[Ray], runs: usize, any_hit: bool) -> Run 
 }
 
 // ---------------------------------------------------------------------------------------------
+// tinybvh (through tinybvh-rs, its C++ compiled by cxx with -march=native)
+// ---------------------------------------------------------------------------------------------
+
+/// The mesh as tinybvh takes it: three 4-float corners per triangle.
+fn tinybvh_corners(mesh: &Mesh) -> Vec<[f32; 4]> {
+    mesh.triangles()
+        .iter()
+        .flat_map(|t| t.map(|i| mesh.vertices()[i as usize].extend(0.0).to_array()))
+        .collect()
+}
+
+/// tinybvh rays, each with its direction's length: tinybvh normalizes the direction, so its
+/// distances are in units of length, and the range end it is given (1e30 for an endless
+/// ray) is scaled to match. Its range starts at 0: `None` if a ray starts past 0.
+fn tinybvh_rays(rays: &[Ray]) -> Option<Vec<(tinybvh_rs::Ray, f32)>> {
+    rays.iter()
+        .map(|r| {
+            (r.tmin == 0.0).then(|| {
+                let length = r.dir.length();
+                let mut ray = tinybvh_rs::Ray::new(r.origin.to_array(), r.dir.to_array());
+                ray.hit.t = (r.tmax * length).min(tinybvh_rs::INFINITE);
+                (ray, length)
+            })
+        })
+        .collect()
+}
+
+/// Casts `ray` with `intersect`; the hit, if it lies in front of the ray's range end, its
+/// distance back in units of the caller's direction.
+fn tinybvh_cast(
+    (ray, length): &(tinybvh_rs::Ray, f32),
+    intersect: impl Fn(&mut tinybvh_rs::Ray),
+) -> Option<PeerHit> {
+    let mut cast = *ray;
+    intersect(&mut cast);
+    (cast.hit.t < ray.hit.t).then_some(PeerHit {
+        t: cast.hit.t / length,
+        triangle: cast.hit.prim,
+    })
+}
+
+/// tinybvh's fastest CPU layout, BVH8_CPU (8-wide nodes, AVX2, triangles in SoA blocks of four;
+/// "Accelerated Single Ray Tracing for Wide Vector Units"), converted from its binned SAH BVH
+/// with leaves of at most 4 as it requires. tinybvh-rs only offers `Intersect` on it when the
+/// crate is compiled with AVX2 (`RUSTFLAGS="-C target-feature=+avx2,+fma"`), and has no
+/// occlusion query, so there is no any-hit row. `None` if a ray starts past 0.
+#[cfg(target_feature = "avx2")]
+pub fn tinybvh_bvh8(mesh: &Mesh, rays: &[Ray], runs: usize) -> Option<Run> {
+    use tinybvh_rs::{Intersector, bvh, bvh8_cpu, mbvh};
+    let native = tinybvh_rays(rays)?;
+    let corners = tinybvh_corners(mesh);
+    let (build, tree) = best_of(runs, || {
+        let mut wald = bvh::BVH::new(corners.as_slice().into()).expect("tinybvh build");
+        wald.split_leaves(4);
+        let wide = mbvh::BVH::new(&wald);
+        bvh8_cpu::BVH::new(&wide).expect("tinybvh BVH8_CPU conversion")
+    });
+    let (query, hits) = time_queries(runs, &native, |r| {
+        tinybvh_cast(r, |ray| {
+            tree.intersect(ray);
+        })
+    });
+    progress("tinybvh BVH8_CPU", build, query, rays.len());
+    Some(Run {
+        engine: "tinybvh BVH8_CPU".to_string(),
+        structure: "binned SAH (BVH::Build), leaves split to <= 4, MBVH<8>, BVH8_CPU; no \
+                    occlusion query in tinybvh-rs"
+            .to_string(),
+        build,
+        query,
+        hits,
+        any_hit: None,
+    })
+}
+
+/// tinybvh's binary BVH (Wald layout, binned SAH), its portable single-ray path.
+pub fn tinybvh_bvh2(mesh: &Mesh, rays: &[Ray], runs: usize) -> Option<Run> {
+    use tinybvh_rs::{Intersector, bvh};
+    let native = tinybvh_rays(rays)?;
+    let corners = tinybvh_corners(mesh);
+    let (build, tree) = best_of(runs, || {
+        bvh::BVH::new(corners.as_slice().into()).expect("tinybvh build")
+    });
+    let (query, hits) = time_queries(runs, &native, |r| {
+        tinybvh_cast(r, |ray| {
+            tree.intersect(ray);
+        })
+    });
+    progress("tinybvh BVH", build, query, rays.len());
+    Some(Run {
+        engine: "tinybvh BVH".to_string(),
+        structure: "binary, binned SAH (BVH::Build), Wald layout; no occlusion query in \
+                    tinybvh-rs"
+            .to_string(),
+        build,
+        query,
+        hits,
+        any_hit: None,
+    })
+}
+
+// ---------------------------------------------------------------------------------------------
 // parry3d
 // ---------------------------------------------------------------------------------------------
 
