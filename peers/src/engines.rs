@@ -461,6 +461,7 @@ pub fn obvhs_bvh2(mesh: &Mesh, rays: &[Ray], runs: usize, any_hit: bool) -> Run 
 // ---------------------------------------------------------------------------------------------
 
 /// The mesh as tinybvh takes it: three 4-float corners per triangle.
+#[cfg(target_feature = "avx2")]
 fn tinybvh_corners(mesh: &Mesh) -> Vec<[f32; 4]> {
     mesh.triangles()
         .iter()
@@ -471,6 +472,7 @@ fn tinybvh_corners(mesh: &Mesh) -> Vec<[f32; 4]> {
 /// tinybvh rays, each with its direction's length: tinybvh normalizes the direction, so its
 /// distances are in units of length, and the range end it is given (1e30 for an endless
 /// ray) is scaled to match. Its range starts at 0: `None` if a ray starts past 0.
+#[cfg(target_feature = "avx2")]
 fn tinybvh_rays(rays: &[Ray]) -> Option<Vec<(tinybvh_rs::Ray, f32)>> {
     rays.iter()
         .map(|r| {
@@ -486,6 +488,7 @@ fn tinybvh_rays(rays: &[Ray]) -> Option<Vec<(tinybvh_rs::Ray, f32)>> {
 
 /// Casts `ray` with `intersect`; the hit, if it lies in front of the ray's range end, its
 /// distance back in units of the caller's direction.
+#[cfg(target_feature = "avx2")]
 fn tinybvh_cast(
     (ray, length): &(tinybvh_rs::Ray, f32),
     intersect: impl Fn(&mut tinybvh_rs::Ray),
@@ -524,32 +527,6 @@ pub fn tinybvh_bvh8(mesh: &Mesh, rays: &[Ray], runs: usize) -> Option<Run> {
         engine: "tinybvh BVH8_CPU".to_string(),
         structure: "binned SAH (BVH::Build), leaves split to <= 4, MBVH<8>, BVH8_CPU; no \
                     occlusion query in tinybvh-rs"
-            .to_string(),
-        build,
-        query,
-        hits,
-        any_hit: None,
-    })
-}
-
-/// tinybvh's binary BVH (Wald layout, binned SAH), its portable single-ray path.
-pub fn tinybvh_bvh2(mesh: &Mesh, rays: &[Ray], runs: usize) -> Option<Run> {
-    use tinybvh_rs::{Intersector, bvh};
-    let native = tinybvh_rays(rays)?;
-    let corners = tinybvh_corners(mesh);
-    let (build, tree) = best_of(runs, || {
-        bvh::BVH::new(corners.as_slice().into()).expect("tinybvh build")
-    });
-    let (query, hits) = time_queries(runs, &native, |r| {
-        tinybvh_cast(r, |ray| {
-            tree.intersect(ray);
-        })
-    });
-    progress("tinybvh BVH", build, query, rays.len());
-    Some(Run {
-        engine: "tinybvh BVH".to_string(),
-        structure: "binary, binned SAH (BVH::Build), Wald layout; no occlusion query in \
-                    tinybvh-rs"
             .to_string(),
         build,
         query,

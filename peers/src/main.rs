@@ -175,7 +175,6 @@ fn run_all(
     out.push(engines::parry(mesh, rays, runs, any_hit)?);
     #[cfg(target_feature = "avx2")]
     out.extend(engines::tinybvh_bvh8(mesh, rays, runs));
-    out.extend(engines::tinybvh_bvh2(mesh, rays, runs));
     Ok(out)
 }
 
