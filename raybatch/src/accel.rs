@@ -41,6 +41,13 @@ pub trait Accel: Sync + Sized {
     /// answer every [`RayStream`] method; the choice only changes what is cheap.
     const STREAM_LAYOUT: StreamLayout = StreamLayout::Records;
 
+    /// Whether the batched queries group this structure's rays by direction octant, as
+    /// [`crate::BatchOptions::ordering`] asks (the default). Structures whose walks take
+    /// nothing from the stream's octant (each ray walked alone, in its own order: the grids,
+    /// the kd-tree) say `false` and get each chunk as one stream, which keeps rays that start
+    /// near each other together for an order by origin (`crate::batch::origin_order`).
+    const GROUP_BY_OCTANT: bool = true;
+
     /// Reports to `visitor`, as ray number `id`, every hit of `ray` with kernel `K` in
     /// `[ray.tmin, tmax]`, where `tmax` starts at `ray.tmax` and follows what the visitor sets;
     /// returns the final `tmax`.

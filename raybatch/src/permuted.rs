@@ -63,6 +63,7 @@ impl<V: Visitor> Visitor for ToOriginal<'_, V> {
 impl<A: Accel> Accel for Permuted<A> {
     type Scratch = A::Scratch;
     const STREAM_LAYOUT: StreamLayout = A::STREAM_LAYOUT;
+    const GROUP_BY_OCTANT: bool = A::GROUP_BY_OCTANT;
 
     #[inline]
     fn trace<K: TriangleTest, V: Visitor>(

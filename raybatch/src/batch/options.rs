@@ -64,7 +64,8 @@ impl Interleave {
 pub struct BatchOptions {
     /// The ray/triangle kernel.
     pub kernel: Kernel,
-    /// How rays are grouped by direction.
+    /// How rays are grouped by direction. Structures that walk each ray alone (grids, the
+    /// kd-tree: `Accel::GROUP_BY_OCTANT` is false) always get one group.
     pub ordering: BatchOrdering,
     /// Split large batches over rayon's current thread pool (on the calling thread if no thread
     /// can be started).

@@ -10,7 +10,7 @@
 
 use std::sync::Arc;
 
-use crate::accel::{Accel, Footprint};
+use crate::accel::{Accel, Footprint, RayStream};
 use crate::bvh::BuildError;
 use crate::geom::{Aabb, PreparedRay, TriangleTest};
 use crate::hit::Visitor;
@@ -18,10 +18,11 @@ use crate::mesh::Mesh;
 
 use super::cells::{Block, blocks, for_each_cell, grid_planes, reference};
 use super::mailbox::Mailbox;
+use super::scratch::GridScratch;
 use super::sizing::{GridOptions, cap, cell_shape, resolution};
 use super::table::CellTable;
 use super::uniform::{live_triangles, test_cell};
-use super::walk::{GridPlanes, walk};
+use super::walk::{GridPlanes, bounds, walk};
 
 /// A triangle is stored at most this many times on average (else the cells are coarsened).
 const REFERENCES_PER_TRIANGLE: u64 = 16;
@@ -205,10 +206,10 @@ fn fill(dims: [u32; 3], live: &[u32], blocks: &[Block]) -> (CellTable, Vec<u32>,
     (table, refs, stored)
 }
 
-impl Accel for SpatialHash {
-    type Scratch = Mailbox;
-
-    fn trace<K: TriangleTest, V: Visitor>(
+impl SpatialHash {
+    /// [`Accel::trace`] with the thread's mailbox.
+    #[inline(always)]
+    fn trace_with<K: TriangleTest, V: Visitor>(
         &self,
         ray: &PreparedRay,
         id: u32,
@@ -230,6 +231,37 @@ impl Accel for SpatialHash {
             test_cell::<K, V>(&self.mesh, refs, ray, id, mailbox, tmax, visitor);
         });
         tmax
+    }
+}
+
+impl Accel for SpatialHash {
+    type Scratch = GridScratch;
+    const GROUP_BY_OCTANT: bool = false;
+
+    fn trace<K: TriangleTest, V: Visitor>(
+        &self,
+        ray: &PreparedRay,
+        id: u32,
+        scratch: &mut GridScratch,
+        visitor: &mut V,
+    ) -> f32 {
+        self.trace_with::<K, V>(ray, id, &mut scratch.mailbox, visitor)
+    }
+
+    /// One ray at a time, in Morton order of their origins (`crate::batch::origin_order`).
+    fn trace_stream<K: TriangleTest, V: Visitor>(
+        &self,
+        stream: &mut RayStream<'_>,
+        scratch: &mut GridScratch,
+        visitor: &mut V,
+    ) {
+        let grid = (
+            &bounds(&self.planes),
+            self.heap_bytes() + self.mesh.heap_bytes(),
+        );
+        scratch.trace_stream(grid, stream, |ray, id, mailbox| {
+            self.trace_with::<K, V>(ray, id, mailbox, visitor)
+        });
     }
 }
 

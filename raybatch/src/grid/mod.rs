@@ -11,6 +11,8 @@
 //! - `walk`: the exact 3D-DDA (the argument for exactness is in its docs);
 //! - [`mailbox`]: a small per-thread set of tested triangles, so a triangle in several cells is
 //!   tested once per ray;
+//! - `scratch`: [`GridScratch`], a thread's mailbox and the order a batch's rays are walked
+//!   in (Morton order of their origins: `crate::batch::origin_order`);
 //! - `uniform`: [`UniformGrid`], the dense grid;
 //! - `table`: the hash table of non-empty cells (multiplicative hash, linear probing);
 //! - `hash`: [`SpatialHash`], the sparse grid.
@@ -19,6 +21,7 @@ pub(crate) mod cells;
 mod hash;
 pub mod mailbox;
 pub(crate) mod planes;
+mod scratch;
 pub mod sizing;
 mod table;
 pub(crate) mod uniform;
@@ -26,5 +29,6 @@ pub(crate) mod walk;
 
 pub use hash::{HASH_CELLS_PER_TRIANGLE, SpatialHash};
 pub use mailbox::Mailbox;
+pub use scratch::GridScratch;
 pub use sizing::GridOptions;
 pub use uniform::UniformGrid;

@@ -2,7 +2,7 @@
 
 use std::sync::Arc;
 
-use crate::accel::{Accel, Footprint};
+use crate::accel::{Accel, Footprint, RayStream};
 use crate::bvh::BuildError;
 use crate::geom::{Aabb, PreparedRay, TriangleTest};
 use crate::hit::Visitor;
@@ -11,8 +11,9 @@ use crate::traverse::single::test_triangles;
 
 use super::cells::{Cells, blocks, grid_planes};
 use super::mailbox::{Mailbox, SHARED};
+use super::scratch::GridScratch;
 use super::sizing::{GridOptions, cap, cell_shape, resolution};
-use super::walk::{GridPlanes, walk};
+use super::walk::{GridPlanes, bounds, walk};
 
 /// A triangle is stored at most this many times on average; a finer grid is coarsened until
 /// it fits (large triangles in a fine grid would otherwise fill memory).
@@ -126,10 +127,10 @@ pub(crate) fn test_cell<K: TriangleTest, V: Visitor>(
     test_triangles::<K, V>(ray, id, triangles, tmax, visitor)
 }
 
-impl Accel for UniformGrid {
-    type Scratch = Mailbox;
-
-    fn trace<K: TriangleTest, V: Visitor>(
+impl UniformGrid {
+    /// [`Accel::trace`] with the thread's mailbox.
+    #[inline(always)]
+    fn trace_with<K: TriangleTest, V: Visitor>(
         &self,
         ray: &PreparedRay,
         id: u32,
@@ -148,6 +149,37 @@ impl Accel for UniformGrid {
             }
         });
         tmax
+    }
+}
+
+impl Accel for UniformGrid {
+    type Scratch = GridScratch;
+    const GROUP_BY_OCTANT: bool = false;
+
+    fn trace<K: TriangleTest, V: Visitor>(
+        &self,
+        ray: &PreparedRay,
+        id: u32,
+        scratch: &mut GridScratch,
+        visitor: &mut V,
+    ) -> f32 {
+        self.trace_with::<K, V>(ray, id, &mut scratch.mailbox, visitor)
+    }
+
+    /// One ray at a time, in Morton order of their origins (`crate::batch::origin_order`).
+    fn trace_stream<K: TriangleTest, V: Visitor>(
+        &self,
+        stream: &mut RayStream<'_>,
+        scratch: &mut GridScratch,
+        visitor: &mut V,
+    ) {
+        let grid = (
+            &bounds(&self.planes),
+            self.heap_bytes() + self.mesh.heap_bytes(),
+        );
+        scratch.trace_stream(grid, stream, |ray, id, mailbox| {
+            self.trace_with::<K, V>(ray, id, mailbox, visitor)
+        });
     }
 }
 

@@ -32,14 +32,25 @@
 //! outside it, at `tmin > 0` or ending at a finite `tmax` only changes where the walk starts
 //! (the grid's own entry distance) and ends.
 
-use crate::geom::PreparedRay;
+use glam::Vec3;
+
 use crate::geom::aabb::EXIT_SCALE;
+use crate::geom::{Aabb, PreparedRay};
 use crate::hit::RAY_DONE;
 
 use super::planes::Planes;
 
 /// The three axes' planes of a grid.
 pub(crate) type GridPlanes = [Planes; 3];
+
+/// The box the planes of a grid span.
+pub(crate) fn bounds(planes: &GridPlanes) -> Aabb {
+    let [x, y, z] = planes.each_ref().map(|p| {
+        let at = p.planes();
+        (at[0], at[at.len() - 1])
+    });
+    Aabb::new(Vec3::new(x.0, y.0, z.0), Vec3::new(x.1, y.1, z.1))
+}
 
 /// Walks `ray` through the cells of `planes` in order of entry distance, calling
 /// `visit(cell, tmax)` once for every cell (slab indices `[x, y, z]`) that may hold a hit in

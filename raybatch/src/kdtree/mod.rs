@@ -18,7 +18,7 @@ use std::sync::Arc;
 pub use node::MAX_INDEX;
 pub use traverse::KdScratch;
 
-use crate::accel::{Accel, Footprint};
+use crate::accel::{Accel, Footprint, RayStream};
 use crate::bvh::BuildError;
 use crate::geom::{Aabb, PreparedRay, TriangleTest};
 use crate::grid::mailbox::SHARED;
@@ -105,6 +105,7 @@ fn mark_shared(mut refs: Vec<u32>, triangles: usize) -> Vec<u32> {
 
 impl Accel for KdTree {
     type Scratch = KdScratch;
+    const GROUP_BY_OCTANT: bool = false;
 
     fn trace<K: TriangleTest, V: Visitor>(
         &self,
@@ -114,6 +115,23 @@ impl Accel for KdTree {
         visitor: &mut V,
     ) -> f32 {
         traverse::trace::<K, V>(self, ray, id, scratch, visitor)
+    }
+
+    /// One ray at a time, in Morton order of their origins (`crate::batch::origin_order`).
+    fn trace_stream<K: TriangleTest, V: Visitor>(
+        &self,
+        stream: &mut RayStream<'_>,
+        scratch: &mut KdScratch,
+        visitor: &mut V,
+    ) {
+        // Taken out for the walk, which borrows the rest of the scratch (no allocation: an
+        // empty order takes none, and the order is put back).
+        let mut order = std::mem::take(&mut scratch.order);
+        let working_set = self.heap_bytes() + self.mesh.heap_bytes();
+        order.trace((&self.bounds, working_set), stream, |ray, id| {
+            traverse::trace::<K, V>(self, ray, id, scratch, visitor)
+        });
+        scratch.order = order;
     }
 }
 

@@ -18,6 +18,7 @@
 //! (a zero direction component, `0 * inf = NaN` in the slab test) grazes both children and
 //! enters both; a triangle in the plane is in both.
 
+use crate::batch::origin_order::OriginOrder;
 use crate::geom::aabb::EXIT_SCALE;
 use crate::geom::{Aabb, PreparedRay, TriangleTest};
 use crate::grid::Mailbox;
@@ -27,12 +28,14 @@ use crate::hit::{RAY_DONE, Visitor};
 use super::KdTree;
 use super::node::Decoded;
 
-/// Per-thread memory of the kd-tree walk: the stack of pending far children and the mailbox
-/// (a triangle in several leaves is tested once per ray).
+/// Per-thread memory of the kd-tree walk: the stack of pending far children, the mailbox (a
+/// triangle in several leaves is tested once per ray) and the order a batch's rays are walked
+/// in (Morton order of their origins: `crate::batch::origin_order`).
 #[derive(Debug, Default)]
 pub struct KdScratch {
     stack: Vec<(u32, Span)>,
     mailbox: Mailbox,
+    pub(super) order: OriginOrder,
 }
 
 /// A node's slab-test result for the ray: the entry distance (at least `tmin`) and the exit
@@ -138,7 +141,7 @@ pub(crate) fn trace<K: TriangleTest, V: Visitor>(
     if root.entry(tmax) == f32::INFINITY {
         return tmax;
     }
-    let KdScratch { stack, mailbox } = scratch;
+    let KdScratch { stack, mailbox, .. } = scratch;
     mailbox.next_ray();
     stack.clear();
     let (mut node, mut span) = (0u32, root);

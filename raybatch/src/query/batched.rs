@@ -15,7 +15,7 @@
 use crate::accel::{Accel, RayStream, Storage, StreamLayout};
 use crate::batch::chunks::for_each_chunk;
 use crate::batch::group::{self, Groups, Slots};
-use crate::batch::options::BatchOptions;
+use crate::batch::options::{BatchOptions, BatchOrdering};
 use crate::batch::partition::Partitioner;
 use crate::batch::scratch::BatchScratch;
 use crate::geom::{Kernel, MollerTrumbore, Ray, Watertight};
@@ -116,13 +116,18 @@ fn with_chunk<A: Accel, R>(
             keys,
         } = batch;
         let grouping = (&mut *keys, &mut *slots);
+        let ordering = if A::GROUP_BY_OCTANT {
+            options.ordering
+        } else {
+            BatchOrdering::Unordered
+        };
         let (groups, storage) = match A::STREAM_LAYOUT {
             StreamLayout::Lanes => (
-                group::prepare(rays, options.ordering, lanes, grouping),
+                group::prepare(rays, ordering, lanes, grouping),
                 Storage::Lanes(lanes),
             ),
             StreamLayout::Records => (
-                group::prepare_records(rays, options.ordering, records, grouping),
+                group::prepare_records(rays, ordering, records, grouping),
                 Storage::Records(records),
             ),
         };
