@@ -53,18 +53,24 @@ impl OriginOrder {
         if working_set <= SORT_ABOVE_BYTES {
             return (0..len).for_each(|i| walk(stream, i));
         }
+        for &key in self.sorted(bounds, stream) {
+            walk(stream, key as u32 as usize);
+        }
+    }
+
+    /// The rays of `stream` in Morton order of their origins within `bounds`: keys whose low 32
+    /// bits are the rays' indices in the stream.
+    fn sorted(&mut self, bounds: &Aabb, stream: &RayStream<'_>) -> &[u64] {
         let steps = (1u32 << BITS) as f32;
         let extent = bounds.max - bounds.min;
         let scale = extent.map(|e| if e > 0.0 { steps / e } else { 0.0 });
         self.keys.clear();
-        self.keys.extend((0..len).map(|i| {
+        self.keys.extend((0..stream.len()).map(|i| {
             let at = (stream.ray(i).origin - bounds.min) * scale;
             morton(at.to_array().map(quantize)) << 32 | i as u64
         }));
         self.keys.sort_unstable();
-        for &key in &self.keys {
-            walk(stream, key as u32 as usize);
-        }
+        &self.keys
     }
 }
 
