@@ -486,15 +486,16 @@ fn tinybvh_rays(rays: &[Ray]) -> Option<Vec<(tinybvh_rs::Ray, f32)>> {
         .collect()
 }
 
-/// Casts `ray` with `intersect`; the hit, if it lies in front of the ray's range end, its
+/// Casts `ray` through `tree`; the hit, if it lies in front of the ray's range end, its
 /// distance back in units of the caller's direction.
 #[cfg(target_feature = "avx2")]
 fn tinybvh_cast(
+    tree: &tinybvh_rs::bvh8_cpu::BVH,
     (ray, length): &(tinybvh_rs::Ray, f32),
-    intersect: impl Fn(&mut tinybvh_rs::Ray),
 ) -> Option<PeerHit> {
+    use tinybvh_rs::Intersector;
     let mut cast = *ray;
-    intersect(&mut cast);
+    tree.intersect(&mut cast);
     (cast.hit.t < ray.hit.t).then_some(PeerHit {
         t: cast.hit.t / length,
         triangle: cast.hit.prim,
@@ -508,7 +509,7 @@ fn tinybvh_cast(
 /// occlusion query, so there is no any-hit row. `None` if a ray starts past 0.
 #[cfg(target_feature = "avx2")]
 pub fn tinybvh_bvh8(mesh: &Mesh, rays: &[Ray], runs: usize) -> Option<Run> {
-    use tinybvh_rs::{Intersector, bvh, bvh8_cpu, mbvh};
+    use tinybvh_rs::{bvh, bvh8_cpu, mbvh};
     let native = tinybvh_rays(rays)?;
     let corners = tinybvh_corners(mesh);
     let (build, tree) = best_of(runs, || {
@@ -517,11 +518,7 @@ pub fn tinybvh_bvh8(mesh: &Mesh, rays: &[Ray], runs: usize) -> Option<Run> {
         let wide = mbvh::BVH::new(&wald);
         bvh8_cpu::BVH::new(&wide).expect("tinybvh BVH8_CPU conversion")
     });
-    let (query, hits) = time_queries(runs, &native, |r| {
-        tinybvh_cast(r, |ray| {
-            tree.intersect(ray);
-        })
-    });
+    let (query, hits) = time_queries(runs, &native, |r| tinybvh_cast(&tree, r));
     progress("tinybvh BVH8_CPU", build, query, rays.len());
     Some(Run {
         engine: "tinybvh BVH8_CPU".to_string(),

@@ -157,13 +157,8 @@ fn main() {
 
 /// The built-in scene called `name`.
 fn scene(name: &str) -> scenes::Scene {
-    match name {
-        "terrain" => scenes::terrain(scenes::BUILTIN_TERRAIN_CELLS),
-        "bunny" => scenes::bunny(),
-        "city" => scenes::city(scenes::BUILTIN_CITY_BLOCKS),
-        "sparse" => scenes::sparse(scenes::BUILTIN_SPARSE_CLUSTERS),
-        other => panic!("unknown scene {other}: bunny, terrain, city or sparse"),
-    }
+    scenes::named(name)
+        .unwrap_or_else(|| panic!("unknown scene {name}: bunny, terrain, city or sparse"))
 }
 
 /// `count` rays of the set called `name`: one of `raybatch bench`'s, or `vertical`.

@@ -14,12 +14,9 @@ use raybatch_tools::scenes::{self, RaySet};
 
 fn main() {
     let mut args = std::env::args().skip(1);
-    let scene = match args.next().as_deref() {
-        None | Some("bunny") => scenes::bunny(),
-        Some("city") => scenes::city(scenes::BUILTIN_CITY_BLOCKS),
-        Some("terrain") => scenes::terrain(scenes::BUILTIN_TERRAIN_CELLS),
-        Some(other) => panic!("unknown scene {other}: bunny, city or terrain"),
-    };
+    let name = args.next().unwrap_or_else(|| "bunny".to_string());
+    let scene = scenes::named(&name)
+        .unwrap_or_else(|| panic!("unknown scene {name}: bunny, terrain, city or sparse"));
     let count: usize = args
         .next()
         .map_or(500_000, |n| n.parse().expect("a ray count"));

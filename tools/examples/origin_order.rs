@@ -61,13 +61,8 @@ fn main() {
 }
 
 fn scene(name: &str) -> scenes::Scene {
-    match name {
-        "terrain" => scenes::terrain(scenes::BUILTIN_TERRAIN_CELLS),
-        "bunny" => scenes::bunny(),
-        "city" => scenes::city(scenes::BUILTIN_CITY_BLOCKS),
-        "sparse" => scenes::sparse(scenes::BUILTIN_SPARSE_CLUSTERS),
-        other => panic!("unknown scene {other}: bunny, terrain, city or sparse"),
-    }
+    scenes::named(name)
+        .unwrap_or_else(|| panic!("unknown scene {name}: bunny, terrain, city or sparse"))
 }
 
 /// One table row: per ray -> batched, and the ratio, per ray set.

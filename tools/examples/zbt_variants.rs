@@ -18,15 +18,15 @@ use raybatch_tools::scenes::{self, RaySet};
 fn main() {
     let mut args = std::env::args().skip(1);
     let scene = match args.next().as_deref() {
-        None | Some("bunny") => scenes::bunny(),
-        Some("terrain") => scenes::terrain(scenes::BUILTIN_TERRAIN_CELLS),
-        Some("city") => scenes::city(scenes::BUILTIN_CITY_BLOCKS),
+        None => scenes::bunny(),
         Some(path) if path.ends_with(".obj") => scenes::Scene {
             name: "mesh",
             mesh: raybatch::Mesh::load_obj(path).expect("a readable OBJ file"),
             kind: scenes::SceneKind::Object,
         },
-        Some(other) => panic!("unknown scene {other}: bunny, terrain, city or a .obj file"),
+        Some(name) => scenes::named(name).unwrap_or_else(|| {
+            panic!("unknown scene {name}: bunny, terrain, city, sparse or a .obj file")
+        }),
     };
     let count: usize = args
         .next()

@@ -17,12 +17,12 @@ use crate::hit::Visitor;
 use crate::mesh::Mesh;
 
 use super::cells::{Block, blocks, for_each_cell, grid_planes, reference};
-use super::mailbox::Mailbox;
 use super::scratch::GridScratch;
 use super::sizing::{GridOptions, cap, cell_shape, resolution};
 use super::table::CellTable;
 use super::uniform::{live_triangles, test_cell};
 use super::walk::{GridPlanes, bounds, walk};
+use crate::batch::origin_order;
 
 /// A triangle is stored at most this many times on average (else the cells are coarsened).
 const REFERENCES_PER_TRIANGLE: u64 = 16;
@@ -206,16 +206,18 @@ fn fill(dims: [u32; 3], live: &[u32], blocks: &[Block]) -> (CellTable, Vec<u32>,
     (table, refs, stored)
 }
 
-impl SpatialHash {
-    /// [`Accel::trace`] with the thread's mailbox.
-    #[inline(always)]
-    fn trace_with<K: TriangleTest, V: Visitor>(
+impl Accel for SpatialHash {
+    type Scratch = GridScratch;
+    const GROUP_BY_OCTANT: bool = false;
+
+    fn trace<K: TriangleTest, V: Visitor>(
         &self,
         ray: &PreparedRay,
         id: u32,
-        mailbox: &mut Mailbox,
+        scratch: &mut GridScratch,
         visitor: &mut V,
     ) -> f32 {
+        let mailbox = &mut scratch.mailbox;
         let mut tmax = ray.tmax;
         if self.refs.is_empty() {
             return tmax;
@@ -232,21 +234,6 @@ impl SpatialHash {
         });
         tmax
     }
-}
-
-impl Accel for SpatialHash {
-    type Scratch = GridScratch;
-    const GROUP_BY_OCTANT: bool = false;
-
-    fn trace<K: TriangleTest, V: Visitor>(
-        &self,
-        ray: &PreparedRay,
-        id: u32,
-        scratch: &mut GridScratch,
-        visitor: &mut V,
-    ) -> f32 {
-        self.trace_with::<K, V>(ray, id, &mut scratch.mailbox, visitor)
-    }
 
     /// One ray at a time, in Morton order of their origins (`crate::batch::origin_order`).
     fn trace_stream<K: TriangleTest, V: Visitor>(
@@ -255,13 +242,8 @@ impl Accel for SpatialHash {
         scratch: &mut GridScratch,
         visitor: &mut V,
     ) {
-        let grid = (
-            &bounds(&self.planes),
-            self.heap_bytes() + self.mesh.heap_bytes(),
-        );
-        scratch.trace_stream(grid, stream, |ray, id, mailbox| {
-            self.trace_with::<K, V>(ray, id, mailbox, visitor)
-        });
+        let grid = (&bounds(&self.planes), &*self.mesh);
+        origin_order::trace_stream::<_, K, V>(self, grid, stream, scratch, visitor);
     }
 }
 

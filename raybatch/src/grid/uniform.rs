@@ -14,6 +14,7 @@ use super::mailbox::{Mailbox, SHARED};
 use super::scratch::GridScratch;
 use super::sizing::{GridOptions, cap, cell_shape, resolution};
 use super::walk::{GridPlanes, bounds, walk};
+use crate::batch::origin_order;
 
 /// A triangle is stored at most this many times on average; a finer grid is coarsened until
 /// it fits (large triangles in a fine grid would otherwise fill memory).
@@ -127,16 +128,18 @@ pub(crate) fn test_cell<K: TriangleTest, V: Visitor>(
     test_triangles::<K, V>(ray, id, triangles, tmax, visitor)
 }
 
-impl UniformGrid {
-    /// [`Accel::trace`] with the thread's mailbox.
-    #[inline(always)]
-    fn trace_with<K: TriangleTest, V: Visitor>(
+impl Accel for UniformGrid {
+    type Scratch = GridScratch;
+    const GROUP_BY_OCTANT: bool = false;
+
+    fn trace<K: TriangleTest, V: Visitor>(
         &self,
         ray: &PreparedRay,
         id: u32,
-        mailbox: &mut Mailbox,
+        scratch: &mut GridScratch,
         visitor: &mut V,
     ) -> f32 {
+        let mailbox = &mut scratch.mailbox;
         let mut tmax = ray.tmax;
         if self.cells.is_empty() {
             return tmax;
@@ -150,21 +153,6 @@ impl UniformGrid {
         });
         tmax
     }
-}
-
-impl Accel for UniformGrid {
-    type Scratch = GridScratch;
-    const GROUP_BY_OCTANT: bool = false;
-
-    fn trace<K: TriangleTest, V: Visitor>(
-        &self,
-        ray: &PreparedRay,
-        id: u32,
-        scratch: &mut GridScratch,
-        visitor: &mut V,
-    ) -> f32 {
-        self.trace_with::<K, V>(ray, id, &mut scratch.mailbox, visitor)
-    }
 
     /// One ray at a time, in Morton order of their origins (`crate::batch::origin_order`).
     fn trace_stream<K: TriangleTest, V: Visitor>(
@@ -173,13 +161,8 @@ impl Accel for UniformGrid {
         scratch: &mut GridScratch,
         visitor: &mut V,
     ) {
-        let grid = (
-            &bounds(&self.planes),
-            self.heap_bytes() + self.mesh.heap_bytes(),
-        );
-        scratch.trace_stream(grid, stream, |ray, id, mailbox| {
-            self.trace_with::<K, V>(ray, id, mailbox, visitor)
-        });
+        let grid = (&bounds(&self.planes), &*self.mesh);
+        origin_order::trace_stream::<_, K, V>(self, grid, stream, scratch, visitor);
     }
 }
 

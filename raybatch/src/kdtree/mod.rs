@@ -19,6 +19,7 @@ pub use node::MAX_INDEX;
 pub use traverse::KdScratch;
 
 use crate::accel::{Accel, Footprint, RayStream};
+use crate::batch::origin_order;
 use crate::bvh::BuildError;
 use crate::geom::{Aabb, PreparedRay, TriangleTest};
 use crate::grid::mailbox::SHARED;
@@ -124,14 +125,8 @@ impl Accel for KdTree {
         scratch: &mut KdScratch,
         visitor: &mut V,
     ) {
-        // Taken out for the walk, which borrows the rest of the scratch (no allocation: an
-        // empty order takes none, and the order is put back).
-        let mut order = std::mem::take(&mut scratch.order);
-        let working_set = self.heap_bytes() + self.mesh.heap_bytes();
-        order.trace((&self.bounds, working_set), stream, |ray, id| {
-            traverse::trace::<K, V>(self, ray, id, scratch, visitor)
-        });
-        scratch.order = order;
+        let tree = (&self.bounds, &*self.mesh);
+        origin_order::trace_stream::<_, K, V>(self, tree, stream, scratch, visitor);
     }
 }
 

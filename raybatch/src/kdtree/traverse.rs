@@ -18,7 +18,7 @@
 //! (a zero direction component, `0 * inf = NaN` in the slab test) grazes both children and
 //! enters both; a triangle in the plane is in both.
 
-use crate::batch::origin_order::OriginOrder;
+use crate::batch::origin_order::{OriginOrder, WithOriginOrder};
 use crate::geom::aabb::EXIT_SCALE;
 use crate::geom::{Aabb, PreparedRay, TriangleTest};
 use crate::grid::Mailbox;
@@ -35,7 +35,13 @@ use super::node::Decoded;
 pub struct KdScratch {
     stack: Vec<(u32, Span)>,
     mailbox: Mailbox,
-    pub(super) order: OriginOrder,
+    order: OriginOrder,
+}
+
+impl WithOriginOrder for KdScratch {
+    fn origin_order(&mut self) -> &mut OriginOrder {
+        &mut self.order
+    }
 }
 
 /// A node's slab-test result for the ray: the entry distance (at least `tmin`) and the exit

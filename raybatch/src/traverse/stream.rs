@@ -39,6 +39,7 @@ pub(crate) fn trace_stream<B, K, V>(
         return;
     }
     let single_ray_below = stream.options().single_ray_below;
+    let filter = Filter::detect();
     let mut pending = std::mem::take(&mut scratch.stream_stack);
     pending.clear();
     pending.push((0, stream.len() as u32, tree.root_bounds(&mut scratch.cache)));
@@ -54,7 +55,14 @@ pub(crate) fn trace_stream<B, K, V>(
         }
         let node = tree.node(index);
         let slots = node.first..node.first + node.count;
-        test_leaf::<K, V>(stream, active, slots, |slot| tree.triangle(slot), visitor);
+        test_leaf::<K, V>(
+            filter,
+            stream,
+            active,
+            slots,
+            |slot| tree.triangle(slot),
+            visitor,
+        );
         if node.has_children() {
             let [a, b] = node.children;
             let kept = B::keep(&bounds);
@@ -73,6 +81,26 @@ pub(crate) fn trace_stream<B, K, V>(
 
 /// Most triangles a leaf pass keeps at once; larger triangle ranges go in several passes.
 pub(crate) const LEAF_BATCH: usize = 16;
+
+/// The widest sign filter this CPU runs, checked once per stream (not at every leaf).
+#[derive(Clone, Copy)]
+enum Filter {
+    /// Four rays at a time ([`RayQuad`]: SSE2, NEON or scalar through glam).
+    Four,
+    /// Eight rays at a time with AVX2 (`RayOctet`).
+    #[cfg(target_arch = "x86_64")]
+    Eight(Avx2),
+}
+
+impl Filter {
+    fn detect() -> Self {
+        #[cfg(target_arch = "x86_64")]
+        if let Some(avx2) = Avx2::detect() {
+            return Filter::Eight(avx2);
+        }
+        Filter::Four
+    }
+}
 
 /// Up to [`LEAF_BATCH`] triangles of a leaf, fetched once to be tested against many rays: what
 /// every stream engine does at a leaf.
@@ -142,31 +170,35 @@ impl LeafBatch {
     }
 
     /// Tests rays `0..active` of `stream` against the batch through the sign filter, eight
-    /// rays at a time with AVX2, else four at a time, the scalar kernel only where a hit is
-    /// possible. The last, partial group is filtered too, as the last full window of rays with
-    /// the lanes already tested masked off (a remainder tested without the filter cost more
-    /// than the whole window). Returns how many rays it handled: all of them, unless there are
-    /// fewer than one window; the rest are the caller's.
+    /// rays at a time where `filter` allows and there are at least eight, else four at a time,
+    /// the scalar kernel only where a hit is possible. The last, partial group is filtered too,
+    /// as the last full window of rays with the lanes already tested masked off (a remainder
+    /// tested without the filter cost more than the whole window). Returns how many rays it
+    /// handled: all of them, unless there are fewer than four; the rest are the caller's.
     #[inline]
-    fn test_quads<K: TriangleTest, V: Visitor>(
+    fn test_filtered<K: TriangleTest, V: Visitor>(
         &self,
+        filter: Filter,
         stream: &mut RayStream<'_>,
         active: usize,
         visitor: &mut V,
     ) -> usize {
         #[cfg(target_arch = "x86_64")]
-        if let Some(avx2) = Avx2::detect() {
+        if let Filter::Eight(avx2) = filter
+            && active >= 8
+        {
             return self.test_windows::<8, K, V>(stream, active, visitor, |stream, i| {
                 let octet = stream.octet(avx2, i);
                 self.may_hit_with(|corners| octet.may_hit(avx2, corners))
             });
         }
+        let _ = filter;
         self.test_windows::<4, K, V>(stream, active, visitor, |stream, i| {
             self.may_hit(&stream.quad(i))
         })
     }
 
-    /// [`LeafBatch::test_quads`] with windows of `N` rays: `filter(stream, i)` gives the masks
+    /// [`LeafBatch::test_filtered`] with windows of `N` rays: `filter(stream, i)` gives the masks
     /// of rays `i..i + N`.
     #[inline(always)]
     fn test_windows<const N: usize, K: TriangleTest, V: Visitor>(
@@ -232,9 +264,10 @@ impl LeafBatch {
 }
 
 /// Tests the triangles in `slots` (read with `triangle`) against rays `0..active` of the
-/// stream: each triangle fetched once for all rays, each ray rebuilt from its lane once per
-/// batch of triangles.
+/// stream, through the sign filter `filter` where the kernel has one: each triangle fetched
+/// once for all rays, each ray rebuilt from its lane once per batch of triangles.
 fn test_leaf<K, V>(
+    filter: Filter,
     stream: &mut RayStream<'_>,
     active: usize,
     slots: std::ops::Range<u32>,
@@ -246,7 +279,7 @@ fn test_leaf<K, V>(
 {
     for batch in LeafBatch::fetch(slots, triangle) {
         let filtered = if K::SIGN_FILTER {
-            batch.test_quads::<K, V>(stream, active, visitor)
+            batch.test_filtered::<K, V>(filter, stream, active, visitor)
         } else {
             0
         };

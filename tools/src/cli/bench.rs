@@ -177,13 +177,7 @@ fn load_scenes(args: &BenchArgs) -> Result<Vec<BenchScene>, CliError> {
 /// The built-in scene called `name` (one of [`SCENE_NAMES`]; the parser checked).
 fn builtin_scene(name: &str) -> Scene {
     progress::step(format!("{name}: generating the scene"));
-    match name {
-        "bunny" => scenes::bunny(),
-        "terrain" => scenes::terrain(scenes::BUILTIN_TERRAIN_CELLS),
-        "city" => scenes::city(scenes::BUILTIN_CITY_BLOCKS),
-        "sparse" => scenes::sparse(scenes::BUILTIN_SPARSE_CLUSTERS),
-        other => unreachable!("scene '{other}' passed the parser"),
-    }
+    scenes::named(name).unwrap_or_else(|| unreachable!("scene '{name}' passed the parser"))
 }
 
 fn load_user_mesh(path: &Path) -> Result<BenchScene, CliError> {

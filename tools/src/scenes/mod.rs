@@ -99,6 +99,18 @@ pub fn sparse(clusters: u32) -> Scene {
     }
 }
 
+/// The built-in scene called `name` (`bunny`, `terrain`, `city` or `sparse`), as `raybatch
+/// bench --scenes` names them; `None` for another name.
+pub fn named(name: &str) -> Option<Scene> {
+    Some(match name {
+        "bunny" => bunny(),
+        "terrain" => terrain(BUILTIN_TERRAIN_CELLS),
+        "city" => city(BUILTIN_CITY_BLOCKS),
+        "sparse" => sparse(BUILTIN_SPARSE_CLUSTERS),
+        _ => return None,
+    })
+}
+
 /// The scenes `raybatch bench` runs: the bunny, the 1M-triangle terrain and the city.
 pub fn builtin() -> Vec<Scene> {
     vec![
