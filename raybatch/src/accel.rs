@@ -22,13 +22,13 @@ use crate::batch::lanes::Lanes;
 use crate::batch::options::BatchOptions;
 use crate::batch::partition::Partitioner;
 use crate::batch::rays::PreparedRays;
+#[cfg(target_arch = "x86_64")]
+use crate::geom::sign_filter::RayOctet;
 use crate::geom::sign_filter::RayQuad;
 use crate::geom::{Aabb, PreparedRay, TriangleTest};
 use crate::hit::Visitor;
 #[cfg(target_arch = "x86_64")]
-use crate::traverse::avx2::Avx2;
-#[cfg(target_arch = "x86_64")]
-use crate::wide::simd::RayOctet;
+use crate::x86::Avx2;
 
 /// An acceleration structure: the traversal every query is written on (see the module docs).
 pub trait Accel: Sync + Sized {
@@ -226,7 +226,7 @@ impl<'a> RayStream<'a> {
     pub(crate) fn octet(&self, avx2: Avx2, i: usize) -> RayOctet {
         assert!(i + 8 <= self.len(), "rays {i}..{} of {}", i + 8, self.len());
         match &self.storage {
-            Storage::Lanes(lanes) => RayOctet::from_lanes(avx2, lanes, self.start + i),
+            Storage::Lanes(lanes) => lanes.octet(avx2, self.start + i),
             Storage::Records(records) => {
                 let slots = std::array::from_fn(|j| (self.start + i + j) as u32);
                 RayOctet::gather(avx2, &records.rays, &slots)

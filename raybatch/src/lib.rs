@@ -56,6 +56,9 @@ pub mod traverse;
 pub mod users;
 pub mod wide;
 pub mod workspace;
+#[cfg(target_arch = "x86_64")]
+#[allow(unsafe_code)]
+mod x86;
 pub mod zbt;
 
 pub use accel::{Accel, Footprint, RayStream, StreamLayout};

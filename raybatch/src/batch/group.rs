@@ -16,7 +16,7 @@ use super::rays::PreparedRays;
 use crate::geom::ray::flushed_if_valid;
 use crate::geom::{PreparedRay, Ray, octant};
 #[cfg(target_arch = "x86_64")]
-use crate::traverse::avx2::Avx2;
+use crate::x86::Avx2;
 
 /// Number of groups: the 8 octants (a single group when unordered).
 pub(crate) const GROUPS: usize = 8;

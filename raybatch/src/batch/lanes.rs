@@ -12,7 +12,11 @@
 use glam::{BVec4A, Vec3, Vec4};
 
 use crate::geom::PreparedRay;
+#[cfg(target_arch = "x86_64")]
+use crate::geom::sign_filter::RayOctet;
 use crate::geom::sign_filter::RayQuad;
+#[cfg(target_arch = "x86_64")]
+use crate::x86::Avx2;
 
 /// Column indices.
 pub(crate) const OX: usize = 0;
@@ -106,6 +110,20 @@ impl Lanes {
             kz_is_x: BVec4A::from(axes.map(|a| a & 0xFF == 0)),
             kz_is_y: BVec4A::from(axes.map(|a| a & 0xFF == 1)),
         }
+    }
+
+    /// The sign-filter constants of lanes `lane..lane + 8` (all below [`Lanes::len`]), eight
+    /// at a time with AVX2.
+    #[cfg(target_arch = "x86_64")]
+    #[inline(always)]
+    pub(crate) fn octet(&self, avx2: Avx2, lane: usize) -> RayOctet {
+        let eight = |c: usize| -> &[u32; 8] { self.cols[c][lane..lane + 8].try_into().unwrap() };
+        RayOctet::from_columns(
+            avx2,
+            [eight(OX), eight(OY), eight(OZ)],
+            [eight(SX), eight(SY)],
+            eight(AXES),
+        )
     }
 
     /// The prepared ray in lane `lane`, bit for bit as it was written (with the current

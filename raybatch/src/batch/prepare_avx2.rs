@@ -18,8 +18,8 @@ use std::arch::x86_64::{
 };
 
 use crate::geom::{PreparedRay, Ray};
-use crate::traverse::avx2::Avx2;
-use crate::wide::simd::transpose;
+use crate::x86::Avx2;
+use crate::x86::transpose;
 
 /// Eight rays in columns, their directions flushed, and which of them are valid.
 struct Columns {

@@ -7,22 +7,8 @@
 //! order (Rust never fuses a multiply and an add on its own), so they return identical bits; each
 //! structure's tests compare the two.
 //!
-//! Hand-written AVX2 elsewhere (`wide::simd`, `batch::prepare_avx2`) takes an [`Avx2`] token,
-//! which only exists where the CPU has AVX2.
-
-/// Proof that the CPU has AVX2: only [`Avx2::detect`] makes one, so the safe functions that take
-/// it may run AVX2 code.
-#[cfg(target_arch = "x86_64")]
-#[derive(Clone, Copy, Debug)]
-pub(crate) struct Avx2(());
-
-#[cfg(target_arch = "x86_64")]
-impl Avx2 {
-    /// `Some` if the CPU has AVX2.
-    pub(crate) fn detect() -> Option<Self> {
-        std::arch::is_x86_feature_detected!("avx2").then_some(Self(()))
-    }
-}
+//! Hand-written AVX2 elsewhere (`wide::simd`, `batch::prepare_avx2`, the eight-ray sign filter)
+//! takes an [`Avx2`] token (`crate::x86`), which only exists where the CPU has AVX2.
 
 /// Work to run in either copy. `run` must be `#[inline(always)]`, so that it is compiled into
 /// the copy that calls it.

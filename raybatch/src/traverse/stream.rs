@@ -22,7 +22,7 @@ use crate::geom::sign_filter::RayQuad;
 use crate::geom::{PreparedRay, TriangleTest};
 use crate::hit::Visitor;
 #[cfg(target_arch = "x86_64")]
-use crate::traverse::avx2::Avx2;
+use crate::x86::Avx2;
 
 /// Runs every ray of `stream` through the tree.
 pub(crate) fn trace_stream<B, K, V>(

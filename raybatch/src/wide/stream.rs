@@ -9,7 +9,7 @@
 //! order for the stream's octant, farther child first, so the nearer ones are walked first and
 //! closest-hit rays shrink early. A leaf's triangles are fetched once and tested against every
 //! ray of its list, eight rays at a time through the watertight kernel's sign filter first
-//! (AVX2, `simd::RayOctet`; four at a time elsewhere), which proves most misses, so the scalar
+//! (AVX2, `geom::sign_filter::RayOctet`; four at a time elsewhere), which proves most misses, so the scalar
 //! kernel runs only where a hit is possible (fandisk, 1M incoherent rays, one thread: 114-120
 //! -> 99-103 ms, paired runs). Lists shorter than [`BatchOptions::single_ray_below`] finish their subtree
 //! with the one-ray loop.
@@ -25,6 +25,8 @@ use super::stack::Stack;
 use super::{WideScratch, WideTree};
 use crate::accel::RayStream;
 use crate::bvh::nodes::leaf_word;
+#[cfg(target_arch = "x86_64")]
+use crate::geom::sign_filter::RayOctet;
 use crate::geom::sign_filter::RayQuad;
 use crate::geom::{PreparedRay, TriangleTest};
 use crate::hit::Visitor;
@@ -83,7 +85,7 @@ pub(crate) fn trace_stream<K: TriangleTest, V: Visitor>(
 pub(crate) struct Lists {
     /// Set if the CPU has AVX2: the split then tests eight rays at a time.
     #[cfg(target_arch = "x86_64")]
-    avx2: Option<super::simd::Avx2>,
+    avx2: Option<crate::x86::Avx2>,
     /// The lists of ray indices (into the block's rays), used as a stack.
     ids: Vec<u32>,
     /// Child masks of the rays of the list being split, one byte per ray.
@@ -100,7 +102,7 @@ impl Default for Lists {
     fn default() -> Self {
         Self {
             #[cfg(target_arch = "x86_64")]
-            avx2: super::simd::Avx2::detect(),
+            avx2: crate::x86::Avx2::detect(),
             ids: Vec::new(),
             masks: Vec::new(),
             group_bits: Vec::new(),
@@ -207,7 +209,7 @@ fn trace_block<K: TriangleTest, V: Visitor>(
 /// The state of one stream's walk.
 struct Walk<'a> {
     #[cfg(target_arch = "x86_64")]
-    avx2: Option<super::simd::Avx2>,
+    avx2: Option<crate::x86::Avx2>,
     tree: &'a WideTree,
     /// The rays' octant mask (0 when their octants differ: children in slot order).
     octant_mask: u8,
@@ -415,7 +417,7 @@ impl Walk<'_> {
         if let Some(avx2) = self.avx2 {
             while k + 8 <= end {
                 let eight: &[u32; 8] = self.ids[k..k + 8].try_into().unwrap();
-                let octet = super::simd::RayOctet::gather(avx2, self.rays, eight);
+                let octet = RayOctet::gather(avx2, self.rays, eight);
                 let (masks, any) = batch.may_hit_with(|tri| octet.may_hit(avx2, tri));
                 let eight = eight.map(|i| i as usize);
                 self.test_kept::<K, V>(batch, (&masks, any), &eight, visitor);
@@ -510,7 +512,6 @@ mod tests {
 
     use super::super::simd::{self, Avx2};
     use super::*;
-    use crate::batch::lanes::Lanes;
     use crate::geom::{Aabb, Ray};
     use crate::test_support::TestRng;
 
@@ -629,60 +630,5 @@ mod tests {
                 );
             }
         }
-    }
-
-    /// The eight-ray sign filter (AVX2) gives, lane by lane, the four-ray filter's answer
-    /// ([`RayQuad::may_hit`], which `sign_filter::tests` checks against the kernel), over rays
-    /// of every dominant axis and triangles with corners and edges on a ray, with the eight
-    /// rays' constants gathered from records and loaded from lanes.
-    #[test]
-    fn eight_ray_sign_filter_equals_two_four_ray_ones() {
-        let Some(avx2) = Avx2::detect() else {
-            return;
-        };
-        let mut rng = TestRng::new(9);
-        let mut axes = [0usize; 3];
-        for round in 0..20_000 {
-            let rays: Vec<PreparedRay> = (0..16)
-                .map(|k| {
-                    let mut dir = rng.vec3(1.0);
-                    if k % 5 == 0 {
-                        dir[k % 3] = 0.0;
-                    }
-                    let ray = Ray::new(rng.vec3(2.0), dir);
-                    PreparedRay::new(&ray).unwrap_or_else(|| {
-                        PreparedRay::new(&Ray::new(ray.origin, Vec3::Y)).unwrap()
-                    })
-                })
-                .collect();
-            let ids: [u32; 8] = std::array::from_fn(|_| rng.range(0.0, 15.99) as u32);
-            let at = |j: usize| &rays[ids[j] as usize];
-            let mut tri = [rng.vec3(3.0), rng.vec3(3.0), rng.vec3(3.0)];
-            match round % 4 {
-                // A corner on a ray, and a ray through the middle of an edge.
-                1 => tri[0] = at(round % 8).origin + at(round % 8).dir * 1.5,
-                2 => tri[1] = 2.0 * (at(round % 8).origin + at(round % 8).dir) - tri[0],
-                _ => {}
-            }
-            let octet = simd::RayOctet::gather(avx2, &rays, &ids);
-            let quads = [0, 4].map(|j| RayQuad::from_rays(std::array::from_fn(|k| at(j + k))));
-            let expected = quads[0].may_hit(&tri) | quads[1].may_hit(&tri) << 4;
-            assert_eq!(octet.may_hit(avx2, &tri), expected, "round {round}");
-            // The same rays in lanes (the binary trees' layout), from lane 3 on.
-            let mut lanes = Lanes::default();
-            lanes.reset(11);
-            (0..8).for_each(|j| lanes.set(3 + j, at(j), j as u32));
-            let from_lanes = simd::RayOctet::from_lanes(avx2, &lanes, 3);
-            assert_eq!(
-                from_lanes.may_hit(avx2, &tri),
-                expected,
-                "lanes, round {round}"
-            );
-            (0..8).for_each(|j| axes[at(j).kz as usize] += 1);
-        }
-        assert!(
-            axes.iter().all(|&n| n > 10_000),
-            "every dominant axis: {axes:?}"
-        );
     }
 }

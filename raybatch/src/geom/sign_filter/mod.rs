@@ -16,6 +16,12 @@
 
 use glam::{BVec4A, Vec3, Vec4};
 
+#[cfg(target_arch = "x86_64")]
+#[allow(unsafe_code)]
+mod octet;
+#[cfg(target_arch = "x86_64")]
+pub(crate) use octet::RayOctet;
+
 use super::PreparedRay;
 
 /// The constants of four rays the sign test reads (lane `k` is ray `k`).

@@ -1,0 +1,51 @@
+//! x86-64 SIMD pieces every layer's hand-written AVX2 shares: the [`Avx2`] token that proves
+//! the CPU has AVX2, and the 8x8 transpose that turns eight 32-byte records into eight
+//! columns (ray preparation, the stream split, the eight-ray sign filter).
+
+use std::arch::x86_64::{
+    __m256, _mm256_permute2f128_ps, _mm256_shuffle_ps, _mm256_unpackhi_ps, _mm256_unpacklo_ps,
+};
+
+/// Proof that the CPU has AVX2: only [`Avx2::detect`] makes one, so the safe functions that take
+/// it may run AVX2 code.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Avx2(());
+
+impl Avx2 {
+    /// `Some` if the CPU has AVX2.
+    pub(crate) fn detect() -> Option<Self> {
+        std::arch::is_x86_feature_detected!("avx2").then_some(Self(()))
+    }
+}
+
+/// Eight rows of eight values to eight columns: `out[c]` lane `r` is `rows[r]` lane `c`.
+#[inline]
+#[target_feature(enable = "avx2")]
+pub(crate) fn transpose(rows: [__m256; 8]) -> [__m256; 8] {
+    let [r0, r1, r2, r3, r4, r5, r6, r7] = rows;
+    // Pairs of rows interleaved, then quads, within each 128-bit half...
+    let pairs = |a, b| (_mm256_unpacklo_ps(a, b), _mm256_unpackhi_ps(a, b));
+    let quads = |a, b| {
+        (
+            _mm256_shuffle_ps::<0x44>(a, b),
+            _mm256_shuffle_ps::<0xEE>(a, b),
+        )
+    };
+    let ((t0, t1), (t2, t3)) = (pairs(r0, r1), pairs(r2, r3));
+    let ((t4, t5), (t6, t7)) = (pairs(r4, r5), pairs(r6, r7));
+    let ((u0, u1), (u2, u3)) = (quads(t0, t2), quads(t1, t3));
+    let ((u4, u5), (u6, u7)) = (quads(t4, t6), quads(t5, t7));
+    // ...then the halves: rows 0-3 low, rows 4-7 high.
+    let low = |a, b| _mm256_permute2f128_ps::<0x20>(a, b);
+    let high = |a, b| _mm256_permute2f128_ps::<0x31>(a, b);
+    [
+        low(u0, u4),
+        low(u1, u5),
+        low(u2, u6),
+        low(u3, u7),
+        high(u0, u4),
+        high(u1, u5),
+        high(u2, u6),
+        high(u3, u7),
+    ]
+}
