@@ -77,10 +77,10 @@ fn answer<'t>(
     })?;
     let (measurement, passes) = match args.passes {
         Some(n) => {
-            let passes = measure_passes(rays, n, |chunk| runner.run(chunk));
+            let passes = measure_passes(rays, n, &mut runner);
             (passes.median, passes.seconds)
         }
-        None => (measure(rays, 1, |chunk| runner.run(chunk)), Vec::new()),
+        None => (measure(rays, 1, &mut runner), Vec::new()),
     };
     Ok(Answers {
         runner,

@@ -22,6 +22,8 @@ use raybatch::{
 use rayon::prelude::*;
 use rayon::{ThreadPool, ThreadPoolBuildError, ThreadPoolBuilder};
 
+use crate::measure::Timed;
+
 /// Closest hit or any hit.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum QueryKind {
@@ -175,6 +177,19 @@ pub struct QueryRunner<'t> {
     answers: Answers,
 }
 
+impl Timed for QueryRunner<'_> {
+    fn answer(&mut self, rays: &[Ray]) {
+        self.run(rays);
+    }
+
+    fn hits(&self) -> usize {
+        match self.query.kind {
+            QueryKind::Closest => self.answers.closest.iter().filter(|h| h.is_some()).count(),
+            QueryKind::Any => self.answers.occluded.iter().filter(|&&o| o).count(),
+        }
+    }
+}
+
 impl<'t> QueryRunner<'t> {
     /// A runner whose buffers already hold room for `capacity` rays, with its thread pool
     /// started; fails only if the system refuses the threads.
@@ -191,8 +206,8 @@ impl<'t> QueryRunner<'t> {
         })
     }
 
-    /// Answers `rays` (replacing the previous answers); returns how many rays hit something.
-    pub fn run(&mut self, rays: &[Ray]) -> usize {
+    /// Answers `rays` (replacing the previous answers).
+    pub fn run(&mut self, rays: &[Ray]) {
         let (tree, query, answers) = (self.tree, &self.query, &mut self.answers);
         match &self.pool {
             Some(pool) => pool.install(|| answers.fill(tree, query, rays)),
@@ -228,19 +243,11 @@ impl Answers {
         Self { closest, occluded }
     }
 
-    /// Answers `rays` on the current thread or pool; returns how many rays hit something.
-    fn fill(&mut self, tree: &AnyAccel, query: &Query, rays: &[Ray]) -> usize {
-        self.closest.clear();
-        self.occluded.clear();
+    /// Answers `rays` on the current thread or pool.
+    fn fill(&mut self, tree: &AnyAccel, query: &Query, rays: &[Ray]) {
         match query.kind {
-            QueryKind::Closest => {
-                self.fill_closest(tree, query, rays);
-                self.closest.iter().filter(|h| h.is_some()).count()
-            }
-            QueryKind::Any => {
-                self.fill_occluded(tree, query, rays);
-                self.occluded.iter().filter(|&&o| o).count()
-            }
+            QueryKind::Closest => self.fill_closest(tree, query, rays),
+            QueryKind::Any => self.fill_occluded(tree, query, rays),
         }
     }
 
@@ -281,9 +288,16 @@ fn fill<T: Clone + Send>(
 ) {
     match query.engine {
         Engine::PerRay if query.parallel() => rays.par_iter().map(per_ray).collect_into_vec(out),
-        Engine::PerRay => out.extend(rays.iter().map(per_ray)),
+        Engine::PerRay => {
+            out.clear();
+            out.extend(rays.iter().map(per_ray));
+        }
         Engine::Batched { .. } => {
-            out.resize(rays.len(), blank);
+            // Every call writes each of its answers: the buffer is only sized, not refilled.
+            if out.len() != rays.len() {
+                out.clear();
+                out.resize(rays.len(), blank);
+            }
             let (options, size) = (query.batch_options(), query.calls_of(rays.len()));
             for (rays, out) in rays.chunks(size).zip(out.chunks_mut(size)) {
                 batch(rays, out, &options).expect("one answer slot per ray");

@@ -74,12 +74,10 @@ pub fn time_query(tree: &AnyAccel, query: Query, rays: &[Ray]) -> Measurement {
 /// Best of [`PASSES`] runs of `query` over `rays`, cut into consecutive batches of `batch`
 /// rays (the last may be shorter), one call each.
 pub fn time_in_batches(tree: &AnyAccel, query: Query, rays: &[Ray], batch: usize) -> Measurement {
-    let batch = batch.max(1);
-    let mut runner = QueryRunner::new(tree, query, batch.min(rays.len()))
-        .expect("the benchmark's thread pools start");
-    measure(rays, PASSES, |all| {
-        all.chunks(batch).map(|chunk| runner.run(chunk)).sum()
-    })
+    let query = query.with_batch_size(batch);
+    let mut runner =
+        QueryRunner::new(tree, query, rays.len()).expect("the benchmark's thread pools start");
+    measure(rays, PASSES, &mut runner)
 }
 
 /// Mrays/s of `query` over `rays` (see [`time_query`]).
