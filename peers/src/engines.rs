@@ -174,23 +174,26 @@ pub fn raybatch(
 }
 
 /// The batched engine on the same tree: the whole ray array in one `cast_rays_with` call on one
-/// thread (`parallel = false`, other options default). With `any_hit`, also
-/// `occluded_batch_with`.
+/// thread (`parallel = false`, other options default), or in calls of `calls_of` rays (a game
+/// frame's worth of queries, for instance). With `any_hit`, also `occluded_batch_with`.
 pub fn raybatch_batched(
     kind: AccelKind,
     mesh: &Arc<Mesh>,
     rays: &[Ray],
-    runs: usize,
+    (runs, calls_of): (usize, Option<usize>),
     any_hit: bool,
 ) -> Result<Run, String> {
     let options = BuildOptions::default().with_parallel(false);
     let (build, tree) = best_of(runs, || kind.build(Arc::clone(mesh), &options));
     let tree = tree.map_err(|e| format!("raybatch build: {e}"))?;
     let batch = BatchOptions::default().with_parallel(false);
+    let size = calls_of.unwrap_or(rays.len()).max(1);
     let mut out: Vec<Option<Hit>> = vec![None; rays.len()];
     let (query, ()) = best_of(runs, || {
-        tree.cast_rays_with(rays, &mut out, &batch)
-            .expect("output sized to the rays")
+        for (rays, out) in rays.chunks(size).zip(out.chunks_mut(size)) {
+            tree.cast_rays_with(rays, out, &batch)
+                .expect("output sized to the rays");
+        }
     });
     let hits = out
         .iter()
@@ -201,13 +204,18 @@ pub fn raybatch_batched(
             })
         })
         .collect();
-    let engine = format!("{} batched", raybatch_engine(kind));
+    let engine = match calls_of {
+        None => format!("{} batched", raybatch_engine(kind)),
+        Some(n) => format!("{} batched, calls of {n}", raybatch_engine(kind)),
+    };
     progress(&engine, build, query, rays.len());
     let any_hit = any_hit.then(|| {
         let mut occluded = vec![false; rays.len()];
         let (query, ()) = best_of(runs, || {
-            tree.occluded_batch_with(rays, &mut occluded, &batch)
-                .expect("output sized to the rays")
+            for (rays, out) in rays.chunks(size).zip(occluded.chunks_mut(size)) {
+                tree.occluded_batch_with(rays, out, &batch)
+                    .expect("output sized to the rays");
+            }
         });
         eprintln!(
             "    any-hit occluded_batch: {:.1} ms ({:.2} Mrays/s)",
@@ -220,10 +228,14 @@ pub fn raybatch_batched(
             occluded,
         }
     });
+    let calls = match calls_of {
+        None => "whole array per call".to_string(),
+        Some(n) => format!("calls of {n} rays"),
+    };
     Ok(Run {
         engine,
         structure: format!(
-            "same tree, whole array per call, one thread, {:?} batch ordering, {} partition",
+            "same tree, {calls}, one thread, {:?} batch ordering, {} partition",
             batch.ordering,
             batch.partition.name()
         ),
@@ -627,7 +639,7 @@ mod tests {
             if kind != AccelKind::DEFAULT {
                 runs.push(raybatch(kind, &mesh, &rays, 1, true).unwrap());
             }
-            runs.push(raybatch_batched(kind, &mesh, &rays, 1, true).unwrap());
+            runs.push(raybatch_batched(kind, &mesh, &rays, (1, None), true).unwrap());
         }
         runs.extend(embree(&device, &mesh, &rays, 1, true, false).unwrap());
         runs.extend(embree(&device, &mesh, &rays, 1, true, true).unwrap());

@@ -150,6 +150,9 @@ fn run(args: &Args) -> Result<(), String> {
     Ok(())
 }
 
+/// Rays per call of the "calls of" row: a game frame's line-of-sight work (issue 7).
+const FRAME_CALL: usize = 4096;
+
 /// Every library on one ray set; the reference (raybatch's default structure, per ray) first,
 /// then raybatch's other structures per ray, then every structure batched, then the peers.
 fn run_all(
@@ -166,8 +169,11 @@ fn run_all(
         out.push(engines::raybatch(kind, mesh, rays, runs, any_hit)?);
     }
     for kind in AccelKind::ALL {
-        out.push(engines::raybatch_batched(kind, mesh, rays, runs, any_hit)?);
+        out.push(engines::raybatch_batched(kind, mesh, rays, (runs, None), any_hit)?);
     }
+    // The default structure in calls of a game frame's size, like for like with the peers.
+    let frame = (runs, Some(FRAME_CALL));
+    out.push(engines::raybatch_batched(reference, mesh, rays, frame, any_hit)?);
     out.extend(engines::embree(device, mesh, rays, runs, any_hit, false)?);
     out.extend(engines::embree(device, mesh, rays, runs, any_hit, true)?);
     out.push(engines::obvhs_cwbvh(mesh, rays, runs, any_hit));
