@@ -59,6 +59,14 @@ pub trait Accel: Sync + Sized {
         visitor: &mut V,
     ) -> f32;
 
+    /// A box every ray that can hit anything touches, tested first by [`Accel::trace`] as
+    /// [`Aabb::hit_by`] tests it (the prepared ray, its own `tmax`): the batched queries
+    /// answer the rays that miss it while they prepare them (no hit, not occluded), and those
+    /// rays never enter a stream. `None` (the default): every valid ray enters one.
+    fn cull_bounds(&self) -> Option<Aabb> {
+        None
+    }
+
     /// [`Accel::trace`] for every ray of `stream` (each reported with its id in the batch),
     /// updating each ray's range end in the stream. The default traces the rays one at a time;
     /// structures that can share work between rays (a node fetched once for all rays that reach

@@ -3,7 +3,13 @@
 //! Rays are validated and prepared once, and sorted into 8 groups with a counting sort (one
 //! group when the ordering is [`BatchOrdering::Unordered`]), so that within a group every ray
 //! has the same octant and a node's precomputed child order applies to all of them. Invalid
-//! rays get no lane: they miss.
+//! rays get no lane: they miss. Neither do rays that miss the structure's cull box
+//! ([`crate::accel::Accel::cull_bounds`], tested on the prepared ray as the structure's own walk
+//! tests it first): their answer is the blank one of [`Slots::dead`], and a group's lanes end
+//! where its last kept ray went. The test and the placement are branch-free (eight rays at a
+//! time with AVX2; each ray is written, and the write cursor moves past it only if it is
+//! kept): 60% of the fandisk's line-of-sight segments miss its box, unpredictably, and a
+//! branch per ray cost more than walking them (46 -> 54 ms for 1M segments, any hit).
 
 #[cfg(target_arch = "x86_64")]
 use glam::Vec3;
@@ -14,16 +20,18 @@ use super::options::BatchOrdering;
 use super::prepare_avx2;
 use super::rays::PreparedRays;
 use crate::geom::ray::flushed_if_valid;
-use crate::geom::{PreparedRay, Ray, octant};
+use crate::geom::{Aabb, PreparedRay, Ray, octant};
 #[cfg(target_arch = "x86_64")]
 use crate::x86::Avx2;
 
 /// Number of groups: the 8 octants (a single group when unordered).
 pub(crate) const GROUPS: usize = 8;
 
-/// The groups of a prepared chunk: group `g` is lanes `starts[g]..starts[g + 1]`.
+/// The groups of a prepared chunk: group `g` is lanes `starts[g]..ends[g]` (`ends[g]` is at
+/// most `starts[g + 1]`: rays culled while preparing leave their slots unused).
 pub(crate) struct Groups {
     starts: [usize; GROUPS + 1],
+    ends: [usize; GROUPS],
     ordering: BatchOrdering,
 }
 
@@ -31,7 +39,7 @@ impl Groups {
     /// The non-empty groups as `(start, end, octant_mask)`; the mask is 0 when unordered.
     pub(crate) fn iter(&self) -> impl Iterator<Item = (usize, usize, u8)> + '_ {
         (0..GROUPS).filter_map(|g| {
-            let (start, end) = (self.starts[g], self.starts[g + 1]);
+            let (start, end) = (self.starts[g], self.ends[g]);
             let mask = match self.ordering {
                 BatchOrdering::ByOctant => 1u8 << g,
                 BatchOrdering::Unordered => 0,
@@ -41,34 +49,43 @@ impl Groups {
     }
 }
 
-/// Prepares the chunk's rays into `lanes`, grouped (see the module docs); `keys` is scratch.
+/// Prepares the chunk's rays into `lanes`, grouped (see the module docs), those that miss
+/// `cull` left out; `keys` is scratch.
 pub(crate) fn prepare(
     rays: &[Ray],
-    ordering: BatchOrdering,
+    (ordering, cull): (BatchOrdering, Option<Aabb>),
     lanes: &mut Lanes,
     (keys, slots): (&mut Vec<u8>, &mut Slots),
 ) -> Groups {
     let starts = group_starts(rays, ordering, keys);
     lanes.reset(starts[GROUPS]);
-    scatter(rays, (keys, slots), starts, |slot, ray| {
+    let ends = scatter(rays, (keys, slots), (starts, cull), |slot, ray| {
         lanes.set(slot, &ray, slot as u32)
     });
-    Groups { starts, ordering }
+    Groups {
+        starts,
+        ends,
+        ordering,
+    }
 }
 
 /// [`prepare`] into prepared-ray records instead of lanes.
 pub(crate) fn prepare_records(
     rays: &[Ray],
-    ordering: BatchOrdering,
+    (ordering, cull): (BatchOrdering, Option<Aabb>),
     out: &mut PreparedRays,
     (keys, slots): (&mut Vec<u8>, &mut Slots),
 ) -> Groups {
     let starts = group_starts(rays, ordering, keys);
     out.reserve_slots(starts[GROUPS]);
-    scatter(rays, (keys, slots), starts, |slot, ray| {
+    let ends = scatter(rays, (keys, slots), (starts, cull), |slot, ray| {
         out.set(slot, ray, slot as u32)
     });
-    Groups { starts, ordering }
+    Groups {
+        starts,
+        ends,
+        ordering,
+    }
 }
 
 /// Where each ray of a chunk went: the streams carry prepared slots as ray ids, so that the
@@ -86,18 +103,26 @@ pub(crate) struct Slots {
 impl Slots {
     /// No slot: the ray is invalid.
     pub(crate) const NONE: u32 = u32::MAX;
+
+    /// The slot of every ray culled while preparing: one past the last slot, never a ray's
+    /// id in a stream, so its answer stays blank (answer arrays have one entry more than slots).
+    pub(crate) fn dead(&self) -> usize {
+        self.positions.len()
+    }
 }
 
 /// Pass 2 of the counting sort, for either layout: `put(slot, ray)` for each valid ray,
 /// prepared, at its place in its group, and both ways between slots and positions in `slots`.
-/// Eight rays at a time with AVX2 (the same records).
+/// A ray that misses `cull` is written too, but the group's cursor stays where it was (the next
+/// ray takes its place) and its position maps to [`Slots::dead`]. Returns where each group's
+/// kept rays end. Eight rays at a time with AVX2 (the same records, the same box test).
 #[inline(always)]
 fn scatter(
     rays: &[Ray],
     (keys, slots): (&[u8], &mut Slots),
-    starts: [usize; GROUPS + 1],
+    (starts, cull): ([usize; GROUPS + 1], Option<Aabb>),
     mut put: impl FnMut(usize, PreparedRay),
-) {
+) -> [usize; GROUPS] {
     let Slots {
         positions,
         of_position,
@@ -106,14 +131,16 @@ fn scatter(
     positions.resize(starts[GROUPS], 0);
     of_position.clear();
     of_position.resize(rays.len(), Slots::NONE);
-    let mut next = starts;
-    let mut place = |id: usize, key: u8, ray: PreparedRay| {
+    let dead = starts[GROUPS] as u32;
+    let mut next: [usize; GROUPS] = std::array::from_fn(|g| starts[g]);
+    let mut place = |id: usize, key: u8, ray: PreparedRay, kept: bool| {
         let key = key as usize;
         if key < GROUPS {
-            put(next[key], ray);
-            positions[next[key]] = id as u32;
-            of_position[id] = next[key] as u32;
-            next[key] += 1;
+            let slot = next[key];
+            put(slot, ray);
+            positions[slot] = id as u32;
+            of_position[id] = if kept { slot as u32 } else { dead };
+            next[key] += kept as usize;
         }
     };
     // Rays done eight at a time (none without AVX2).
@@ -123,18 +150,22 @@ fn scatter(
     if let Some(avx2) = Avx2::detect() {
         let mut records = [PreparedRay::from_valid(&Ray::new(Vec3::ZERO, Vec3::X)); 8];
         for (k, (eight, keys)) in rays.chunks_exact(8).zip(keys.chunks_exact(8)).enumerate() {
-            prepare_avx2::prepare(avx2, eight.try_into().unwrap(), &mut records);
+            let touching =
+                prepare_avx2::prepare(avx2, eight.try_into().unwrap(), cull.as_ref(), &mut records);
             for (j, (&key, record)) in keys.iter().zip(&records).enumerate() {
-                place(8 * k + j, key, *record);
+                place(8 * k + j, key, *record, touching >> j & 1 == 1);
             }
         }
         done = rays.len() / 8 * 8;
     }
     for (id, (ray, &key)) in rays.iter().zip(keys).enumerate().skip(done) {
         if (key as usize) < GROUPS {
-            place(id, key, PreparedRay::from_valid(ray));
+            let ray = PreparedRay::from_valid(ray);
+            let kept = cull.is_none_or(|bounds| bounds.hit_by(&ray, ray.tmax));
+            place(id, key, ray, kept);
         }
     }
+    next
 }
 
 /// Pass 1 of the counting sort: each ray's group into `keys` (`GROUPS` for an invalid ray)
@@ -170,4 +201,60 @@ fn group_starts(rays: &[Ray], ordering: BatchOrdering, keys: &mut Vec<u8>) -> [u
         starts[g + 1] = starts[g] + counts[g];
     }
     starts
+}
+
+#[cfg(test)]
+mod tests {
+    use glam::Vec3;
+
+    use super::*;
+    use crate::test_support::TestRng;
+
+    /// Rays that miss the cull box get no lane (their position maps to the dead slot), the
+    /// others keep theirs, in their octant's group, with their prepared record; a chunk whose
+    /// length is not a multiple of eight runs both the eight-at-a-time and the one-at-a-time
+    /// placement.
+    #[test]
+    fn culled_rays_get_the_dead_slot() {
+        let bounds = Aabb::new(Vec3::splat(-1.0), Vec3::splat(1.0));
+        let mut rng = TestRng::new(5);
+        let rays: Vec<Ray> = (0..1003)
+            .map(|i| {
+                let dir = if i % 97 == 0 {
+                    Vec3::ZERO
+                } else {
+                    rng.vec3(1.0)
+                };
+                Ray::new(rng.vec3(3.0), dir)
+            })
+            .collect();
+        let mut out = PreparedRays::default();
+        let (mut keys, mut slots) = (Vec::new(), Slots::default());
+        let cull = (BatchOrdering::ByOctant, Some(bounds));
+        let groups = prepare_records(&rays, cull, &mut out, (&mut keys, &mut slots));
+        let dead = slots.dead() as u32;
+        let mut kept = 0;
+        for (id, ray) in rays.iter().enumerate() {
+            let slot = slots.of_position[id];
+            match PreparedRay::new(ray) {
+                None => assert_eq!(slot, Slots::NONE, "invalid ray {id}"),
+                Some(p) if !bounds.hit_by(&p, p.tmax) => assert_eq!(slot, dead, "ray {id}"),
+                Some(p) => {
+                    kept += 1;
+                    let slot = slot as usize;
+                    assert_eq!(slots.positions[slot], id as u32);
+                    assert_eq!(out.rays[slot].origin, p.origin);
+                    assert_eq!(out.rays[slot].inv_dir, p.inv_dir);
+                    let (_, _, mask) = groups
+                        .iter()
+                        .find(|&(start, end, _)| (start..end).contains(&slot))
+                        .expect("a kept ray lies in a group");
+                    assert_eq!(mask, p.octant_mask, "ray {id}");
+                }
+            }
+        }
+        let in_groups: usize = groups.iter().map(|(start, end, _)| end - start).sum();
+        assert_eq!(in_groups, kept);
+        assert!(kept > 100 && rays.len() - kept > 100, "{kept} kept");
+    }
 }

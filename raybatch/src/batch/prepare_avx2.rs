@@ -10,14 +10,16 @@
 //! `tests` compares them bit for bit on rays full of special values.
 
 use std::arch::x86_64::{
-    __m256, __m256i, _CMP_EQ_OQ, _CMP_GE_OQ, _CMP_LE_OQ, _CMP_LT_OQ, _mm256_and_ps,
+    __m256, __m256i, _CMP_EQ_OQ, _CMP_GE_OQ, _CMP_GT_OQ, _CMP_LE_OQ, _CMP_LT_OQ, _mm256_and_ps,
     _mm256_andnot_ps, _mm256_blendv_ps, _mm256_castps_si256, _mm256_castsi256_ps, _mm256_cmp_ps,
-    _mm256_div_ps, _mm256_loadu_ps, _mm256_or_si256, _mm256_set1_epi32, _mm256_set1_ps,
-    _mm256_setzero_ps, _mm256_slli_epi32, _mm256_sllv_epi32, _mm256_srli_epi32, _mm256_store_ps,
-    _mm256_storeu_si256,
+    _mm256_div_ps, _mm256_loadu_ps, _mm256_max_ps, _mm256_min_ps, _mm256_movemask_ps,
+    _mm256_mul_ps, _mm256_or_si256, _mm256_set1_epi32, _mm256_set1_ps, _mm256_setzero_ps,
+    _mm256_slli_epi32, _mm256_sllv_epi32, _mm256_srli_epi32, _mm256_store_ps, _mm256_storeu_si256,
+    _mm256_sub_ps,
 };
 
-use crate::geom::{PreparedRay, Ray};
+use crate::geom::aabb::EXIT_SCALE;
+use crate::geom::{Aabb, PreparedRay, Ray};
 use crate::x86::Avx2;
 use crate::x86::transpose;
 
@@ -66,20 +68,28 @@ unsafe fn keys_avx2(rays: &[Ray; 8], by_octant: bool, invalid: u8) -> [u8; 8] {
     out.map(|key| key as u8)
 }
 
-/// The prepared records of the eight rays into `out`, those of invalid rays meaningless.
+/// The prepared records of the eight rays into `out`, those of invalid rays meaningless; returns
+/// which of them touch `cull` (bit `j` for ray `j`; all eight without a box), by
+/// [`Aabb::hit_by`] on the record with its own `tmax`.
 #[inline(always)]
-pub(crate) fn prepare(_: Avx2, rays: &[Ray; 8], out: &mut [PreparedRay; 8]) {
+pub(crate) fn prepare(
+    _: Avx2,
+    rays: &[Ray; 8],
+    cull: Option<&Aabb>,
+    out: &mut [PreparedRay; 8],
+) -> u32 {
     // SAFETY: an `Avx2` exists only if the CPU has AVX2.
-    unsafe { prepare_avx2(rays, out) }
+    unsafe { prepare_avx2(rays, cull, out) }
 }
 
-/// See [`prepare`]. Lane by lane the arithmetic of `PreparedRay::from_flushed`.
+/// See [`prepare`]. Lane by lane the arithmetic of `PreparedRay::from_flushed` and of
+/// `geom::aabb::box_entry`.
 ///
 /// # Safety
 /// The CPU must support AVX2.
 #[inline]
 #[target_feature(enable = "avx2")]
-unsafe fn prepare_avx2(rays: &[Ray; 8], out: &mut [PreparedRay; 8]) {
+unsafe fn prepare_avx2(rays: &[Ray; 8], cull: Option<&Aabb>, out: &mut [PreparedRay; 8]) -> u32 {
     let Columns {
         origin,
         dir: d,
@@ -109,6 +119,7 @@ unsafe fn prepare_avx2(rays: &[Ray; 8], out: &mut [PreparedRay; 8]) {
         _mm256_div_ps(one, z),
     ];
     let inv = d.map(|c| _mm256_div_ps(one, c));
+    let touching = cull.map_or(0xFF, |bounds| touches(bounds, origin, inv, (tmin, tmax)));
     let int = |v: i32| _mm256_castsi256_ps(_mm256_set1_epi32(v));
     let kz = _mm256_castps_si256(pick(int(0), int(1), int(2)));
     // Byte 0: `1 << octant`, byte 1: `kz`, bytes 2 and 3 (the first of `pad`): zero.
@@ -139,6 +150,42 @@ unsafe fn prepare_avx2(rays: &[Ray; 8], out: &mut [PreparedRay; 8]) {
             _mm256_store_ps(record.cast::<f32>().add(8), second[j]);
         }
     }
+    touching
+}
+
+/// Which of eight rays (columns: origins, inverse directions, ranges) touch `bounds`: lane by
+/// lane the slab test of `geom::aabb::box_entry`, the same operations in the same order (near
+/// and far planes picked by the sign of the inverse direction, the exit scaled, each axis
+/// folded into the range with a compare and a select, so a NaN lane leaves it alone).
+#[inline]
+#[target_feature(enable = "avx2")]
+fn touches(
+    bounds: &Aabb,
+    origin: [__m256; 3],
+    inv: [__m256; 3],
+    (tmin, tmax): (__m256, __m256),
+) -> u32 {
+    let zero = _mm256_setzero_ps();
+    let mut near = tmin;
+    let hi = _mm256_min_ps(tmax, _mm256_set1_ps(f32::MAX));
+    let mut far = hi;
+    for a in 0..3 {
+        let negative = _mm256_cmp_ps::<_CMP_LT_OQ>(inv[a], zero);
+        let (min, max) = (_mm256_set1_ps(bounds.min[a]), _mm256_set1_ps(bounds.max[a]));
+        let near_plane = _mm256_blendv_ps(min, max, negative);
+        let far_plane = _mm256_blendv_ps(max, min, negative);
+        let enter = _mm256_mul_ps(_mm256_sub_ps(near_plane, origin[a]), inv[a]);
+        let exit = _mm256_mul_ps(
+            _mm256_mul_ps(_mm256_sub_ps(far_plane, origin[a]), inv[a]),
+            _mm256_set1_ps(EXIT_SCALE),
+        );
+        // `select(enter > tmin, enter, tmin)`, then the running maximum (no NaN reaches it).
+        let enter = _mm256_blendv_ps(tmin, enter, _mm256_cmp_ps::<_CMP_GT_OQ>(enter, tmin));
+        near = _mm256_max_ps(near, enter);
+        let exit = _mm256_blendv_ps(hi, exit, _mm256_cmp_ps::<_CMP_LT_OQ>(exit, hi));
+        far = _mm256_min_ps(far, exit);
+    }
+    _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(near, far)) as u32
 }
 
 /// Loads eight rays as columns and runs the validity checks of `geom::ray::flushed_if_valid`.
@@ -259,7 +306,8 @@ mod tests {
         out
     }
 
-    /// Eight lanes give the scalar keys and, for valid rays, the scalar records bit for bit.
+    /// Eight lanes give the scalar keys and, for valid rays, the scalar records bit for bit and
+    /// the scalar slab test's answer for a box.
     #[test]
     fn eight_at_a_time_equals_one_at_a_time() {
         let Some(avx2) = Avx2::detect() else {
@@ -267,12 +315,21 @@ mod tests {
         };
         let mut rng = TestRng::new(17);
         let (mut valid, mut invalid) = (0, 0);
+        let (mut hit, mut missed) = (0, 0);
         for round in 0..20_000 {
             let rays: [Ray; 8] = std::array::from_fn(|j| random_ray(&mut rng, round + j));
             let by_octant = round % 2 == 0;
             let keys = keys(avx2, &rays, by_octant, 8);
             let mut records = [PreparedRay::new(&Ray::new(Vec3::ZERO, Vec3::X)).unwrap(); 8];
-            prepare(avx2, &rays, &mut records);
+            // A box some rays touch and some miss, now and then flat or a point.
+            let corner = rng.vec3(4.0);
+            let mut size = rng.vec3(8.0).abs();
+            if round % 5 == 0 {
+                size[round % 3] = 0.0;
+            }
+            let bounds = Aabb::new(corner, corner + size);
+            let touching = prepare(avx2, &rays, Some(&bounds), &mut records);
+            assert_eq!(prepare(avx2, &rays, None, &mut records), 0xFF);
             for (j, ray) in rays.iter().enumerate() {
                 match PreparedRay::new(ray) {
                     Some(expected) => {
@@ -284,6 +341,9 @@ mod tests {
                         };
                         assert_eq!(keys[j], key, "{ray:?}");
                         assert_eq!(bits(&records[j]), bits(&expected), "{ray:?}");
+                        let touches = bounds.hit_by(&expected, expected.tmax);
+                        assert_eq!(touching >> j & 1 == 1, touches, "{ray:?} {bounds:?}");
+                        (hit, missed) = (hit + touches as usize, missed + !touches as usize);
                     }
                     None => {
                         invalid += 1;
@@ -295,6 +355,10 @@ mod tests {
         assert!(
             valid > 50_000 && invalid > 10_000,
             "{valid} valid, {invalid} invalid"
+        );
+        assert!(
+            hit > 5_000 && missed > 5_000,
+            "{hit} touch the box, {missed} miss it"
         );
     }
 }

@@ -18,7 +18,7 @@ use crate::batch::group::{self, Groups, Slots};
 use crate::batch::options::{BatchOptions, BatchOrdering};
 use crate::batch::partition::Partitioner;
 use crate::batch::scratch::BatchScratch;
-use crate::geom::{Kernel, MollerTrumbore, Ray, Watertight};
+use crate::geom::{Aabb, Kernel, MollerTrumbore, Ray, Watertight};
 use crate::hit::{Any, Closest, Every, Hit, Visitor};
 use crate::query::single::RayQueries;
 use crate::workspace::Workspace;
@@ -100,7 +100,7 @@ struct Answers<'w> {
 /// Prepares `rays` in this thread's workspace and runs `f` on them and on the workspace's
 /// answer arrays.
 fn with_chunk<A: Accel, R>(
-    rays: &[Ray],
+    (rays, cull): (&[Ray], Option<Aabb>),
     options: &BatchOptions,
     partitioner: Partitioner,
     f: impl FnOnce(Chunk<'_, A::Scratch>, Answers<'_>) -> R,
@@ -123,11 +123,11 @@ fn with_chunk<A: Accel, R>(
         };
         let (groups, storage) = match A::STREAM_LAYOUT {
             StreamLayout::Lanes => (
-                group::prepare(rays, ordering, lanes, grouping),
+                group::prepare(rays, (ordering, cull), lanes, grouping),
                 Storage::Lanes(lanes),
             ),
             StreamLayout::Records => (
-                group::prepare_records(rays, ordering, records, grouping),
+                group::prepare_records(rays, (ordering, cull), records, grouping),
                 Storage::Records(records),
             ),
         };
@@ -171,19 +171,24 @@ pub trait BatchQueries: Accel {
         }
         let partitioner = options.partition.checked();
         for_each_chunk(rays, hits, options, |_, rays, hits| {
-            with_chunk::<Self, _>(rays, options, partitioner, |mut chunk, answers| {
-                let Answers { slots, best, .. } = answers;
-                // "No hit before +inf": a hit at the ray's own `tmax` still wins (`Closest`
-                // compares it with the record's `tmax`, then by the tie rule with this), so
-                // the answers equal those of `Hit::none_before(ray.tmax)`, without a gather.
-                best.clear();
-                best.resize(slots.positions.len(), Hit::none_before(f32::INFINITY));
-                chunk.trace(self, &mut Closest { best });
-                // In position order: sequential writes (invalid rays have no slot: a miss).
-                for (out, &slot) in hits.iter_mut().zip(&slots.of_position) {
-                    *out = best.get(slot as usize).and_then(|hit| hit.found());
-                }
-            })
+            with_chunk::<Self, _>(
+                (rays, self.cull_bounds()),
+                options,
+                partitioner,
+                |mut chunk, answers| {
+                    let Answers { slots, best, .. } = answers;
+                    // "No hit before +inf": a hit at the ray's own `tmax` still wins (`Closest`
+                    // compares it with the record's `tmax`, then by the tie rule with this), so
+                    // the answers equal those of `Hit::none_before(ray.tmax)`, without a gather.
+                    best.clear();
+                    best.resize(slots.dead() + 1, Hit::none_before(f32::INFINITY));
+                    chunk.trace(self, &mut Closest { best });
+                    // In position order: sequential writes (invalid rays have no slot: a miss).
+                    for (out, &slot) in hits.iter_mut().zip(&slots.of_position) {
+                        *out = best.get(slot as usize).and_then(|hit| hit.found());
+                    }
+                },
+            )
         });
         Ok(())
     }
@@ -210,17 +215,22 @@ pub trait BatchQueries: Accel {
         }
         let partitioner = options.partition.checked();
         for_each_chunk(rays, occluded, options, |_, rays, out| {
-            with_chunk::<Self, _>(rays, options, partitioner, |mut chunk, answers| {
-                let Answers {
-                    slots, occluded, ..
-                } = answers;
-                occluded.clear();
-                occluded.resize(slots.positions.len(), false);
-                chunk.trace(self, &mut Any { occluded });
-                for (out, &slot) in out.iter_mut().zip(&slots.of_position) {
-                    *out = occluded.get(slot as usize).copied().unwrap_or(false);
-                }
-            })
+            with_chunk::<Self, _>(
+                (rays, self.cull_bounds()),
+                options,
+                partitioner,
+                |mut chunk, answers| {
+                    let Answers {
+                        slots, occluded, ..
+                    } = answers;
+                    occluded.clear();
+                    occluded.resize(slots.dead() + 1, false);
+                    chunk.trace(self, &mut Any { occluded });
+                    for (out, &slot) in out.iter_mut().zip(&slots.of_position) {
+                        *out = occluded.get(slot as usize).copied().unwrap_or(false);
+                    }
+                },
+            )
         });
         Ok(())
     }
@@ -249,17 +259,22 @@ pub trait BatchQueries: Accel {
         // No output slice: chunks are matched with zero-sized slots.
         let mut slots = vec![(); rays.len()];
         for_each_chunk(rays, &mut slots, options, |offset, rays, _| {
-            with_chunk::<Self, _>(rays, options, partitioner, |mut chunk, answers| {
-                let positions = &answers.slots.positions;
-                chunk.trace(
-                    self,
-                    &mut Every {
-                        offset,
-                        positions,
-                        f: &f,
-                    },
-                );
-            })
+            with_chunk::<Self, _>(
+                (rays, self.cull_bounds()),
+                options,
+                partitioner,
+                |mut chunk, answers| {
+                    let positions = &answers.slots.positions;
+                    chunk.trace(
+                        self,
+                        &mut Every {
+                            offset,
+                            positions,
+                            f: &f,
+                        },
+                    );
+                },
+            )
         });
     }
 }

@@ -148,6 +148,11 @@ pub struct WideScratch {
 impl Accel for WideTree {
     type Scratch = WideScratch;
 
+    /// The root box, which the one-ray loop tests before anything else.
+    fn cull_bounds(&self) -> Option<Aabb> {
+        (!self.is_empty()).then_some(self.root_bounds)
+    }
+
     #[inline]
     fn trace<K: TriangleTest, V: Visitor>(
         &self,
@@ -239,7 +244,7 @@ mod tests {
     use crate::geom::Watertight;
     use crate::query::{BatchQueries, RayQueries};
     use crate::test_support::{bunny, random_rays};
-    use crate::{BatchOptions, Hit, Kernel};
+    use crate::{BatchOptions, Hit, Kernel, Ray};
 
     fn bits(h: Option<Hit>) -> Option<(u32, u32, u32, u32)> {
         h.map(|h| (h.triangle, h.t.to_bits(), h.u.to_bits(), h.v.to_bits()))
@@ -286,6 +291,57 @@ mod tests {
     }
 
     /// Meshes whose slots or nodes the words cannot address are a typed error, not wrong answers.
+    /// Rays that miss the root box are answered while the batch is prepared
+    /// ([`Accel::cull_bounds`]): closest, any and every hit equal the one-ray answers when most
+    /// rays start outside the box, some aimed past it and some through it, with segments that
+    /// stop short of it, in one call and in calls shorter than eight rays.
+    #[test]
+    fn culled_rays_answer_as_one_ray_does() {
+        let mesh = Arc::new(bunny());
+        let tree = WideTree::build(mesh.clone(), &BuildOptions::default()).unwrap();
+        let bounds = mesh.bounds();
+        let mut rng = crate::test_support::TestRng::new(21);
+        let rays: Vec<Ray> = (0..20_000)
+            .map(|i| {
+                let origin = bounds.center() + bounds.extent() * rng.vec3(2.0);
+                let target = bounds.center() + bounds.extent() * rng.vec3(0.7);
+                let tmax = if i % 3 == 0 { 0.3 } else { f32::INFINITY };
+                Ray::with_range(origin, target - origin, 0.0, tmax)
+            })
+            .collect();
+        let culled = rays
+            .iter()
+            .filter(|r| !bounds.hit_by(&PreparedRay::new(r).unwrap(), r.tmax))
+            .count();
+        assert!(
+            culled > 2_000 && culled < 18_000,
+            "{culled} rays miss the box"
+        );
+        for calls_of in [rays.len(), 4_096, 7] {
+            let batch = BatchOptions::default().with_min_batch(1);
+            let mut closest = vec![None; rays.len()];
+            let mut occluded = vec![false; rays.len()];
+            for (i, chunk) in rays.chunks(calls_of).enumerate() {
+                let at = i * calls_of..i * calls_of + chunk.len();
+                tree.cast_rays_with(chunk, &mut closest[at.clone()], &batch)
+                    .unwrap();
+                tree.occluded_batch_with(chunk, &mut occluded[at], &batch)
+                    .unwrap();
+            }
+            let every = std::sync::Mutex::new(vec![Vec::new(); rays.len()]);
+            tree.for_each_hit_batch_with(&rays, &batch, |i, hit| {
+                every.lock().unwrap()[i].push(hit);
+            });
+            let mut every = every.into_inner().unwrap();
+            for (i, ray) in rays.iter().enumerate() {
+                assert_eq!(bits(closest[i]), bits(tree.cast_ray(ray)), "{ray:?}");
+                assert_eq!(occluded[i], tree.occluded(ray), "{ray:?}");
+                Hit::sort(&mut every[i]);
+                assert_eq!(every[i], tree.all_hits(ray), "{ray:?}");
+            }
+        }
+    }
+
     #[test]
     fn too_large_is_an_error() {
         assert!(check_size(1000, 2000).is_ok());
