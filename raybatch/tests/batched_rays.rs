@@ -1,7 +1,8 @@
 //! The batched queries against the single-ray reference, bit for bit, on the rays that test
 //! the contract's edges: invalid rays (they miss in every path, alone or among valid rays),
-//! exact duplicate triangles (the lowest id wins every tie) and shuffled batches (answers do
-//! not depend on the order of the rays), for every structure of the zoo.
+//! rays that miss the structure's box (answered while the batch is prepared), exact duplicate
+//! triangles (the lowest id wins every tie) and shuffled batches (answers do not depend on the
+//! order of the rays), for every structure of the zoo.
 
 mod common;
 
@@ -49,6 +50,44 @@ fn invalid_rays_miss() {
                     assert!(hits.iter().all(|(j, _)| *j != i), "{what}");
                 }
             }
+        }
+    }
+}
+
+/// Rays that miss the structure's box are answered while the batch is prepared
+/// (`Accel::cull_bounds`): mostly rays from outside, some aimed past the mesh, some through it,
+/// some segments stopping short of it, among invalid rays; closest, any and every hit equal
+/// the single-ray answers in every structure, with every batching combination of the spread.
+#[test]
+fn rays_outside_the_box_answer_as_one_ray_does() {
+    let mesh = icosphere_with_duplicates(1);
+    let bounds = mesh.bounds();
+    let (center, extent) = (bounds.center(), bounds.extent());
+    let mut rng = common::rng::seeded(41);
+    let invalid = invalid_rays();
+    let rays: Vec<Ray> = (0..3_000)
+        .map(|i| {
+            if i % 50 == 0 {
+                return invalid[i / 50 % invalid.len()];
+            }
+            let origin = center + extent * common::rng::in_cube(&mut rng, 2.0);
+            let target = center + extent * common::rng::in_cube(&mut rng, 0.8);
+            let tmax = if i % 3 == 0 { 0.4 } else { f32::INFINITY };
+            Ray::with_range(origin, target - origin, 0.0, tmax)
+        })
+        .collect();
+    let zoo = all_structures(&mesh);
+    let all = all_combos(1, 0);
+    for (t, tree) in zoo.iter().enumerate() {
+        let expected = single_ray_answers_both(&tree.accel, &rays);
+        let misses = expected[0].closest.iter().filter(|h| h.is_none()).count();
+        assert!(
+            misses > 500 && misses < 2_500,
+            "{}: {misses} misses",
+            tree.name
+        );
+        for combo in spread_combos(&all, t, 8) {
+            ok(check_combo(tree, &rays, &expected, &combo));
         }
     }
 }

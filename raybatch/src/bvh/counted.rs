@@ -62,6 +62,10 @@ impl<B: Bvh> Bvh for Counted<B> {
         self.tree.root_bounds(cache)
     }
 
+    fn root_bounds_uncached(&self) -> Option<Aabb> {
+        self.tree.root_bounds_uncached()
+    }
+
     #[inline(always)]
     fn child_bounds(&self, node: &Node, node_box: &B::NodeBox, cache: &mut B::Cache) -> [Aabb; 2] {
         self.tree.child_bounds(node, node_box, cache)

@@ -126,6 +126,12 @@ pub trait Bvh: Sync {
     /// The box of the root (node 0; the tree is not empty).
     fn root_bounds(&self, cache: &mut Self::Cache) -> Aabb;
 
+    /// [`Bvh::root_bounds`] without a cache, for the batch preparation's cull test
+    /// ([`crate::accel::Accel::cull_bounds`]): `None` (no culling) unless the tree overrides it.
+    fn root_bounds_uncached(&self) -> Option<Aabb> {
+        None
+    }
+
     /// The boxes of the two children of `node`, of whose own box `node_box` was kept (a child's
     /// box may depend on its parent's: the zero-byte tree's children inherit faces of it).
     fn child_bounds(

@@ -61,6 +61,10 @@ impl<N: NodeFormat> Bvh for QuantizedVertexTree<N> {
         self.nodes.bounds(0)
     }
 
+    fn root_bounds_uncached(&self) -> Option<Aabb> {
+        Some(self.nodes.bounds(0))
+    }
+
     #[inline(always)]
     fn keep(_: &Aabb) {}
 

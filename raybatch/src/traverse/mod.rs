@@ -15,13 +15,21 @@ pub(crate) mod stream;
 
 use crate::accel::{Accel, RayStream, StreamLayout};
 use crate::bvh::{Bvh, BvhScratch};
-use crate::geom::{PreparedRay, TriangleTest};
+use crate::geom::{Aabb, PreparedRay, TriangleTest};
 use crate::hit::Visitor;
 
 impl<B: Bvh> Accel for B {
     type Scratch = BvhScratch<B::Cache, B::NodeBox>;
     // The stream engine partitions the rays at every node (`RayStream::partition`).
     const STREAM_LAYOUT: StreamLayout = StreamLayout::Lanes;
+
+    /// The root box, which the one-ray loop tests first (`traverse::single::trace`).
+    fn cull_bounds(&self) -> Option<Aabb> {
+        if self.is_empty() {
+            return None;
+        }
+        self.root_bounds_uncached()
+    }
 
     #[inline]
     fn trace<K: TriangleTest, V: Visitor>(

@@ -304,6 +304,14 @@ impl<const TOP_LEVEL: bool> Bvh for PackedTree<TOP_LEVEL> {
         self.root_box
     }
 
+    /// The same box: the stored one, or the zero-byte root's recomputed (what the cache holds).
+    fn root_bounds_uncached(&self) -> Option<Aabb> {
+        if !TOP_LEVEL || self.top.is_empty() {
+            return Some(self.packed.bounds(0, &Aabb::EMPTY, 0));
+        }
+        Some(self.root_box)
+    }
+
     /// A top node's children are top nodes (stored boxes) or zero-byte roots (which inherit
     /// nothing); a zero-byte node's children are zero-byte nodes.
     #[inline(always)]
