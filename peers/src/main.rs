@@ -2,10 +2,10 @@
 //!
 //! Every library builds its structure single-threaded and casts every ray single-threaded
 //! (closest hit), best of `--runs` passes each; raybatch runs every structure of
-//! `AccelKind::ALL`, per ray and batched (the default one also in calls of 4,096 rays). The hits are checked against raybatch's default
-//! structure (`AccelKind::DEFAULT`, `cast_ray`) and a Markdown table of build time, query time,
-//! Mrays/s and the speed relative to Embree's `rtcIntersect1` goes to stdout; progress goes to
-//! stderr.
+//! `AccelKind::ALL`, per ray and batched (the default one also in calls of 4,096 rays). The
+//! hits are checked against raybatch's default structure (`AccelKind::DEFAULT`, `cast_ray`)
+//! and a Markdown table of build time, query time, Mrays/s and the speed relative to Embree's
+//! `rtcIntersect1` goes to stdout; progress goes to stderr.
 //!
 //! ```text
 //! bash peers/setup.sh && cargo run --release -p raybatch-peers -- --rays 1000000

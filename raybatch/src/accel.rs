@@ -157,6 +157,9 @@ pub struct RayStream<'a> {
     pub(crate) octant_mask: u8,
     pub(crate) partitioner: Partitioner,
     pub(crate) options: &'a BatchOptions,
+    /// Every ray touches the structure's [`Accel::cull_bounds`]: the batch preparation tested
+    /// them, so the walk need not test its root box again.
+    pub(crate) in_cull_bounds: bool,
 }
 
 impl<'a> RayStream<'a> {
@@ -181,7 +184,23 @@ impl<'a> RayStream<'a> {
             octant_mask,
             partitioner,
             options,
+            in_cull_bounds: false,
         }
+    }
+
+    /// The same stream, marked as holding only rays that touch the structure's
+    /// [`Accel::cull_bounds`] (the batch preparation culled the others) if `tested`.
+    pub(crate) fn culled(self, tested: bool) -> Self {
+        Self {
+            in_cull_bounds: tested,
+            ..self
+        }
+    }
+
+    /// True if every ray is known to touch the structure's [`Accel::cull_bounds`], which is
+    /// its root box: a walk may skip its root test.
+    pub(crate) fn in_cull_bounds(&self) -> bool {
+        self.in_cull_bounds
     }
 
     /// Number of rays.
@@ -308,6 +327,7 @@ impl<'a> RayStream<'a> {
             octant_mask: self.octant_mask,
             partitioner: self.partitioner,
             options: self.options,
+            in_cull_bounds: self.in_cull_bounds,
         }
     }
 

@@ -64,6 +64,8 @@ struct Chunk<'w, S> {
     scratch: &'w mut S,
     options: &'w BatchOptions,
     partitioner: Partitioner,
+    /// The preparation left out the rays that miss the structure's cull box.
+    culled: bool,
 }
 
 impl<S> Chunk<'_, S> {
@@ -73,7 +75,8 @@ impl<S> Chunk<'_, S> {
         for (start, end, octant_mask) in self.groups.iter() {
             let partitioner = self.partitioner;
             let storage = self.storage.reborrow();
-            let mut stream = RayStream::new(storage, start, end, octant_mask, partitioner, options);
+            let mut stream = RayStream::new(storage, start, end, octant_mask, partitioner, options)
+                .culled(self.culled);
             // Rays of a group have different dominant axes, so the watertight kernel dispatches
             // per ray (`Watertight` calls the same `WatertightAxis` function as the single-ray
             // path).
@@ -142,6 +145,7 @@ fn with_chunk<A: Accel, R>(
             scratch,
             options,
             partitioner,
+            culled: cull.is_some(),
         };
         f(chunk, answers)
     })

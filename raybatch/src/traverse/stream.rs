@@ -43,8 +43,14 @@ pub(crate) fn trace_stream<B, K, V>(
     let mut pending = std::mem::take(&mut scratch.stream_stack);
     pending.clear();
     pending.push((0, stream.len() as u32, tree.root_bounds(&mut scratch.cache)));
+    // The root box is the structure's cull box: a culled stream's rays all touch it.
+    let root_tested = stream.in_cull_bounds();
     while let Some((index, count, bounds)) = pending.pop() {
-        let active = stream.partition(count as usize, &bounds);
+        let active = if index == 0 && root_tested {
+            count as usize
+        } else {
+            stream.partition(count as usize, &bounds)
+        };
         if active == 0 {
             continue;
         }

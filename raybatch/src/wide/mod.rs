@@ -290,7 +290,6 @@ mod tests {
         }
     }
 
-    /// Meshes whose slots or nodes the words cannot address are a typed error, not wrong answers.
     /// Rays that miss the root box are answered while the batch is prepared
     /// ([`Accel::cull_bounds`]): closest, any and every hit equal the one-ray answers when most
     /// rays start outside the box, some aimed past it and some through it, with segments that
@@ -342,6 +341,7 @@ mod tests {
         }
     }
 
+    /// Meshes whose slots or nodes the words cannot address are a typed error, not wrong answers.
     #[test]
     fn too_large_is_an_error() {
         assert!(check_size(1000, 2000).is_ok());

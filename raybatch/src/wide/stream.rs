@@ -56,6 +56,7 @@ pub(crate) fn trace_stream<K: TriangleTest, V: Visitor>(
     let setup = Setup {
         octant_mask: stream.octant_mask(),
         single_ray_below: stream.options().single_ray_below,
+        root_tested: stream.in_cull_bounds(),
     };
     let WideScratch {
         stack,
@@ -117,6 +118,8 @@ struct Setup {
     /// The rays' octant mask (0 when their octants differ: children in slot order).
     octant_mask: u8,
     single_ray_below: usize,
+    /// Every ray touches the root box (the batch preparation culled the others).
+    root_tested: bool,
 }
 
 /// Runs `rays` (batch positions `ids`) through the tree in blocks of [`BLOCK`] rays, with the
@@ -175,7 +178,7 @@ fn trace_block<K: TriangleTest, V: Visitor>(
     let mut top = 0;
     for (i, ray) in rays.iter().enumerate() {
         ids[top] = i as u32;
-        top += tree.root_bounds.hit_by(ray, ray.tmax) as usize;
+        top += (setup.root_tested || tree.root_bounds.hit_by(ray, ray.tmax)) as usize;
     }
     pending.clear();
     pending.push(Pending {
