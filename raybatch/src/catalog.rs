@@ -20,7 +20,7 @@ use crate::kdtree::KdTree;
 use crate::mesh::Mesh;
 use crate::permuted::Permuted;
 use crate::query::{BatchError, BatchQueries, RayQueries};
-use crate::wide::WideTree;
+use crate::wide::{WideTree, WideTree8};
 use crate::zbt::{HybridOptions, HybridTree, Rejected, ZbtError, ZbtOptions, ZeroByteTree};
 
 /// A kind of acceleration structure.
@@ -32,6 +32,9 @@ pub enum AccelKind {
     Quantized,
     /// [`WideTree`]: the same tree collapsed to 4 children per node, SIMD box tests.
     Bvh4,
+    /// [`WideTree8`]: the same tree collapsed to 8 children per node (AVX2 box tests where
+    /// the CPU has them), for single rays; batches walk its rays side by side.
+    Bvh8,
     /// [`ZeroByteTree`]: no memory beside the mesh, boxes recomputed, per-thread box cache.
     Zbt,
     /// [`ZeroByteTree`] with the box cache off: every box recomputed at every visit.
@@ -48,10 +51,11 @@ pub enum AccelKind {
 
 impl AccelKind {
     /// Every kind.
-    pub const ALL: [AccelKind; 9] = [
+    pub const ALL: [AccelKind; 10] = [
         AccelKind::Aabb,
         AccelKind::Quantized,
         AccelKind::Bvh4,
+        AccelKind::Bvh8,
         AccelKind::Zbt,
         AccelKind::ZbtNoCache,
         AccelKind::Hybrid,
@@ -72,6 +76,7 @@ impl AccelKind {
             AccelKind::Aabb => "aabb",
             AccelKind::Quantized => "quantized",
             AccelKind::Bvh4 => "bvh4",
+            AccelKind::Bvh8 => "bvh8",
             AccelKind::Zbt => "zbt",
             AccelKind::ZbtNoCache => "zbt-nocache",
             AccelKind::Hybrid => "hybrid",
@@ -87,6 +92,7 @@ impl AccelKind {
             AccelKind::Aabb => "binary SAH tree, 32-byte nodes",
             AccelKind::Quantized => "binary SAH tree, 16-byte quantized nodes",
             AccelKind::Bvh4 => "4-wide tree collapsed from the SAH tree, SIMD box tests",
+            AccelKind::Bvh8 => "8-wide tree collapsed from the SAH tree, for single rays",
             AccelKind::Zbt => "zero-byte tree: no memory beside the mesh, box cache",
             AccelKind::ZbtNoCache => "zero-byte tree without the box cache",
             AccelKind::Hybrid => "AABB tree over zero-byte trees of 32-triangle chunks",
@@ -106,7 +112,11 @@ impl AccelKind {
             | AccelKind::Zbt
             | AccelKind::ZbtNoCache
             | AccelKind::Hybrid => true,
-            AccelKind::Bvh4 | AccelKind::Grid | AccelKind::Kd | AccelKind::Hash => false,
+            AccelKind::Bvh4
+            | AccelKind::Bvh8
+            | AccelKind::Grid
+            | AccelKind::Kd
+            | AccelKind::Hash => false,
         }
     }
 
@@ -131,6 +141,7 @@ impl AccelKind {
             AccelKind::Aabb => AnyAccel::new(<AabbTree>::build(mesh, options)?),
             AccelKind::Quantized => AnyAccel::new(QuantizedAabbTree::build(mesh, options)?),
             AccelKind::Bvh4 => AnyAccel::new(WideTree::build(mesh, options)?),
+            AccelKind::Bvh8 => AnyAccel::new(WideTree8::build(mesh, options)?),
             AccelKind::Zbt | AccelKind::ZbtNoCache => {
                 let zbt = ZbtOptions {
                     box_cache: self == AccelKind::Zbt,

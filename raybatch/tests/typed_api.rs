@@ -17,7 +17,7 @@ use raybatch::zbt::{HybridOptions, ZbtOptions};
 use raybatch::{
     AabbTree, Accel, AccelKind, AnyAccel, BatchOptions, BatchOrdering, BatchQueries, BuildOptions,
     ChildOrdering, Footprint, Hit, HybridTree, Kernel, Mesh, QuantizedAabbTree, Ray, RayQueries,
-    WideTree, ZeroByteTree,
+    WideTree, WideTree8, ZeroByteTree,
 };
 use raybatch::{GridOptions, KdTree, SpatialHash, UniformGrid};
 
@@ -179,6 +179,10 @@ fn typed_queries_match_any_accel() {
                     }
                     AccelKind::Bvh4 => {
                         let typed = WideTree::build(mesh, &options).unwrap();
+                        compare_typed(&name, &typed, &any, &rays)
+                    }
+                    AccelKind::Bvh8 => {
+                        let typed = WideTree8::build(mesh, &options).unwrap();
                         compare_typed(&name, &typed, &any, &rays)
                     }
                     AccelKind::Zbt | AccelKind::ZbtNoCache => {

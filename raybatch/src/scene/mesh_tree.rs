@@ -21,7 +21,7 @@ use crate::kdtree::KdTree;
 use crate::mesh::Mesh;
 use crate::permuted::Permuted;
 use crate::scene::error::SceneError;
-use crate::wide::WideTree;
+use crate::wide::{WideTree, WideTree8};
 use crate::zbt::{HybridOptions, HybridTree, ZbtOptions, ZeroByteTree};
 
 /// A structure a scene can place as instances: an [`Accel`] over one mesh that knows the
@@ -45,6 +45,7 @@ enum Tree {
     Aabb(AabbTree),
     Quantized(QuantizedAabbTree),
     Wide(WideTree),
+    Wide8(WideTree8),
     Zbt(Permuted<ZeroByteTree>),
     Hybrid(Permuted<HybridTree>),
     Grid(UniformGrid),
@@ -85,6 +86,7 @@ impl MeshTree {
             AccelKind::Aabb => Tree::Aabb(AabbTree::build(mesh, options)?),
             AccelKind::Quantized => Tree::Quantized(QuantizedAabbTree::build(mesh, options)?),
             AccelKind::Bvh4 => Tree::Wide(WideTree::build(mesh, options)?),
+            AccelKind::Bvh8 => Tree::Wide8(WideTree8::build(mesh, options)?),
             AccelKind::Zbt | AccelKind::ZbtNoCache => {
                 let zbt = ZbtOptions {
                     box_cache: kind == AccelKind::Zbt,
@@ -168,6 +170,11 @@ macro_rules! with_tree {
                 let $s = &mut $scratch.wide;
                 $body
             }
+            // The same scratch type: the two wide trees share it.
+            Tree::Wide8($t) => {
+                let $s = &mut $scratch.wide;
+                $body
+            }
             Tree::Zbt($t) => {
                 let $s = &mut $scratch.zbt;
                 $body
@@ -244,6 +251,7 @@ impl MeshTree {
             Tree::Aabb(t) => t,
             Tree::Quantized(t) => t,
             Tree::Wide(t) => t,
+            Tree::Wide8(t) => t,
             Tree::Zbt(t) => t,
             Tree::Hybrid(t) => t,
             Tree::Grid(t) => t,

@@ -3,7 +3,7 @@
 //! register copies; `wide::tests` compares the two copies.
 
 use super::stack::Stack;
-use super::{WideScratch, WideTree};
+use super::{NodeKind, WideBvh, WideScratch, WideTree};
 use super::{interleaved, single, stream};
 use crate::accel::RayStream;
 use crate::geom::{PreparedRay, TriangleTest};
@@ -11,8 +11,8 @@ use crate::hit::Visitor;
 use crate::traverse::avx2::{self, Loop};
 
 /// One ray through [`single::trace`], as a [`Loop`].
-struct OneRay<'a, K, V> {
-    tree: &'a WideTree,
+struct OneRay<'a, N: NodeKind, K, V> {
+    tree: &'a WideBvh<N>,
     ray: &'a PreparedRay,
     id: u32,
     stack: &'a mut Stack,
@@ -20,25 +20,25 @@ struct OneRay<'a, K, V> {
     kernel: std::marker::PhantomData<K>,
 }
 
-impl<K: TriangleTest, V: Visitor> Loop for OneRay<'_, K, V> {
+impl<N: NodeKind, K: TriangleTest, V: Visitor> Loop for OneRay<'_, N, K, V> {
     type Output = f32;
     #[inline(always)]
     fn run(self) -> f32 {
-        single::trace::<K, V>(self.tree, self.ray, self.id, self.stack, self.visitor)
+        single::trace::<N, K, V>(self.tree, self.ray, self.id, self.stack, self.visitor)
     }
 }
 
 /// [`single::trace`], in the AVX2 copy if `avx2` and the CPU has it, else the baseline copy.
 #[inline]
-pub(crate) fn trace<K: TriangleTest, V: Visitor>(
+pub(crate) fn trace<N: NodeKind, K: TriangleTest, V: Visitor>(
     avx2: bool,
-    tree: &WideTree,
+    tree: &WideBvh<N>,
     ray: &PreparedRay,
     id: u32,
     stack: &mut Stack,
     visitor: &mut V,
 ) -> f32 {
-    let one = OneRay::<K, V> {
+    let one = OneRay::<N, K, V> {
         tree,
         ray,
         id,
@@ -50,32 +50,32 @@ pub(crate) fn trace<K: TriangleTest, V: Visitor>(
 }
 
 /// A stream through [`interleaved::trace_stream`], as a [`Loop`].
-struct Interleaved<'a, 's, K, V> {
-    tree: &'a WideTree,
+struct Interleaved<'a, 's, N: NodeKind, K, V> {
+    tree: &'a WideBvh<N>,
     stream: &'a mut RayStream<'s>,
     stacks: &'a mut [Stack; interleaved::LANES],
     visitor: &'a mut V,
     kernel: std::marker::PhantomData<K>,
 }
 
-impl<K: TriangleTest, V: Visitor> Loop for Interleaved<'_, '_, K, V> {
+impl<N: NodeKind, K: TriangleTest, V: Visitor> Loop for Interleaved<'_, '_, N, K, V> {
     type Output = ();
     #[inline(always)]
     fn run(self) {
-        interleaved::trace_stream::<K, V>(self.tree, self.stream, self.stacks, self.visitor)
+        interleaved::trace_stream::<N, K, V>(self.tree, self.stream, self.stacks, self.visitor)
     }
 }
 
 /// [`interleaved::trace_stream`], in the AVX2 copy if `avx2` and the CPU has it.
 #[inline]
-pub(crate) fn trace_interleaved<K: TriangleTest, V: Visitor>(
+pub(crate) fn trace_interleaved<N: NodeKind, K: TriangleTest, V: Visitor>(
     avx2: bool,
-    tree: &WideTree,
+    tree: &WideBvh<N>,
     stream: &mut RayStream<'_>,
     stacks: &mut [Stack; interleaved::LANES],
     visitor: &mut V,
 ) {
-    let task = Interleaved::<K, V> {
+    let task = Interleaved::<N, K, V> {
         tree,
         stream,
         stacks,

@@ -16,7 +16,7 @@
 use super::node::WideRay;
 use super::single::step;
 use super::stack::Stack;
-use super::{LEAF_READY, WideTree};
+use super::{LEAF_READY, NodeKind, WideBvh};
 use crate::accel::RayStream;
 use crate::bvh::nodes::leaf_word;
 use crate::geom::{PreparedRay, TriangleTest};
@@ -43,8 +43,8 @@ struct Walker {
 
 /// Runs every ray of `stream` through the tree, [`LANES`] at a time; `stacks` is scratch.
 #[inline(always)]
-pub(crate) fn trace_stream<K: TriangleTest, V: Visitor>(
-    tree: &WideTree,
+pub(crate) fn trace_stream<N: NodeKind, K: TriangleTest, V: Visitor>(
+    tree: &WideBvh<N>,
     stream: &mut RayStream<'_>,
     stacks: &mut [Stack; LANES],
     visitor: &mut V,
@@ -73,7 +73,7 @@ pub(crate) fn trace_stream<K: TriangleTest, V: Visitor>(
                 continue;
             }
             busy = true;
-            if !turn::<K, V>(tree, w, stack, visitor) {
+            if !turn::<N, K, V>(tree, w, stack, visitor) {
                 stream.set_tmax(w.index, w.tmax);
                 w.active = false;
             }
@@ -87,8 +87,8 @@ pub(crate) fn trace_stream<K: TriangleTest, V: Visitor>(
 /// Starts `w` on the next ray of the stream (from `*next` on) that enters the root's box;
 /// false when no ray is left. Rays that miss the root keep their range end.
 #[inline(never)]
-fn start(
-    tree: &WideTree,
+fn start<N: NodeKind>(
+    tree: &WideBvh<N>,
     stream: &RayStream<'_>,
     next: &mut usize,
     w: &mut Walker,
@@ -117,8 +117,8 @@ fn start(
 /// One turn of walker `w`: either one more link of its leaf's read chain is prefetched, or
 /// its item is visited and the next item prefetched. Returns false when the ray is done.
 #[inline(always)]
-fn turn<K: TriangleTest, V: Visitor>(
-    tree: &WideTree,
+fn turn<N: NodeKind, K: TriangleTest, V: Visitor>(
+    tree: &WideBvh<N>,
     w: &mut Walker,
     stack: &mut Stack,
     visitor: &mut V,
@@ -128,7 +128,7 @@ fn turn<K: TriangleTest, V: Visitor>(
         return true;
     }
     let ray = (&w.ray, &w.wide, w.id);
-    match step::<K, V>(tree, ray, w.item, &mut w.tmax, stack, visitor) {
+    match step::<N, K, V>(tree, ray, w.item, &mut w.tmax, stack, visitor) {
         Some(item) => {
             w.item = item;
             w.stage = 0;

@@ -19,7 +19,9 @@
 pub(crate) mod collapse;
 pub(crate) mod dispatch;
 pub(crate) mod interleaved;
+pub(crate) mod kind;
 pub mod node;
+pub mod node8;
 #[cfg(target_arch = "x86_64")]
 #[allow(unsafe_code)]
 pub(crate) mod simd;
@@ -32,21 +34,22 @@ use std::sync::Arc;
 use glam::Vec3;
 
 use crate::accel::{Accel, Footprint, RayStream};
-use crate::batch::Interleave;
 use crate::bvh::build::{BuildError, BuildOptions, build};
 use crate::bvh::leaves::LeafTriangles;
 use crate::bvh::nodes::leaf_word;
 use crate::geom::{Aabb, PreparedRay, TriangleTest};
 use crate::hit::Visitor;
 use crate::mesh::Mesh;
-use crate::prefetch::prefetch;
+pub use kind::NodeKind;
 use node::WideNode;
+use node8::WideNode8;
 use stack::Stack;
 
-/// A 4-wide BVH over a mesh (see the module docs).
+/// A wide BVH over a mesh (see the module docs), of nodes `N`: [`WideTree`] (4 children per
+/// node) or [`WideTree8`] (8).
 #[derive(Clone, Debug)]
-pub struct WideTree {
-    nodes: Vec<WideNode>,
+pub struct WideBvh<N: NodeKind> {
+    nodes: Vec<N>,
     /// The root: a node index, or a leaf word when the tree is a single leaf.
     root: u32,
     /// The root's box (the binary root's): wide nodes store their children's boxes only.
@@ -55,13 +58,20 @@ pub struct WideTree {
     triangles: LeafTriangles,
 }
 
-impl WideTree {
+/// The 4-wide tree, the crate's default structure.
+pub type WideTree = WideBvh<WideNode>;
+
+/// The 8-wide tree: about half the node visits of the 4-wide one per ray, for single rays;
+/// batches walk its rays side by side.
+pub type WideTree8 = WideBvh<WideNode8>;
+
+impl<N: NodeKind> WideBvh<N> {
     /// Builds the binary SAH tree with `options` and collapses it. An empty mesh gives an empty
     /// tree that every ray misses.
     pub fn build(mesh: impl Into<Arc<Mesh>>, options: &BuildOptions) -> Result<Self, BuildError> {
         let mesh = mesh.into();
         let built = build(&mesh, options)?;
-        check_size(built.triangle_order.len(), built.nodes.len())?;
+        check_size(built.triangle_order.len(), built.nodes.len(), N::FORMAT)?;
         let root_bounds = built.nodes.first().map_or(Aabb::EMPTY, |n| n.bounds);
         let (nodes, root) = collapse::collapse(&built).unwrap_or((Vec::new(), 0));
         Ok(Self {
@@ -101,28 +111,23 @@ impl WideTree {
         }
     }
 
-    /// Prefetches both cache lines of node `index`.
+    /// Prefetches the cache lines of node `index`.
     #[inline(always)]
     fn prefetch_node(&self, index: u32) {
-        let node = &self.nodes[index as usize];
-        prefetch(node);
-        prefetch(&node.bounds[4]);
+        self.nodes[index as usize].prefetch();
     }
 }
 
 /// A leaf's stage once its whole read chain is prefetched.
 const LEAF_READY: u8 = 2;
 
-/// The format's name in error messages.
-const FORMAT: &str = "4-wide nodes (128 B)";
-
 /// Fails if leaf words cannot address `slots` triangle slots, or child words the wide nodes
-/// of a binary tree of `binary_nodes` nodes (fewer than that).
-fn check_size(slots: usize, binary_nodes: usize) -> Result<(), BuildError> {
+/// of a binary tree of `binary_nodes` nodes (fewer than that); `format` names the layout.
+fn check_size(slots: usize, binary_nodes: usize, format: &'static str) -> Result<(), BuildError> {
     let max_nodes = leaf_word::LEAF_BIT as usize;
     if slots > leaf_word::MAX_SLOTS || binary_nodes > max_nodes {
         return Err(BuildError::TooLarge {
-            format: FORMAT,
+            format,
             needed: slots.max(binary_nodes),
             max: leaf_word::MAX_SLOTS.min(max_nodes),
         });
@@ -145,7 +150,7 @@ pub struct WideScratch {
     stacks: [Stack; interleaved::LANES],
 }
 
-impl Accel for WideTree {
+impl<N: NodeKind> Accel for WideBvh<N> {
     type Scratch = WideScratch;
 
     /// The root box, which the one-ray loop tests before anything else.
@@ -161,25 +166,17 @@ impl Accel for WideTree {
         scratch: &mut WideScratch,
         visitor: &mut V,
     ) -> f32 {
-        dispatch::trace::<K, V>(true, self, ray, id, &mut scratch.stack, visitor)
+        dispatch::trace::<N, K, V>(true, self, ray, id, &mut scratch.stack, visitor)
     }
 
+    /// The layout's batched engine ([`NodeKind::trace_stream`]).
     fn trace_stream<K: TriangleTest, V: Visitor>(
         &self,
         stream: &mut RayStream<'_>,
         scratch: &mut WideScratch,
         visitor: &mut V,
     ) {
-        let interleave = match stream.options().interleave {
-            Interleave::Always => true,
-            Interleave::Never => false,
-            Interleave::Auto => interleaves(self.working_set_bytes(), stream.len()),
-        };
-        if interleave {
-            dispatch::trace_interleaved::<K, V>(true, self, stream, &mut scratch.stacks, visitor)
-        } else {
-            dispatch::trace_shared::<K, V>(true, self, stream, scratch, visitor)
-        }
+        N::trace_stream::<K, V>(self, stream, scratch, visitor)
     }
 }
 
@@ -212,16 +209,16 @@ fn interleaves(working_set: usize, rays: usize) -> bool {
         || (rays < SHORT_STREAM_RAYS && working_set > SHORT_INTERLEAVE_ABOVE_BYTES)
 }
 
-impl WideTree {
+impl<N: NodeKind> WideBvh<N> {
     /// What a walk through the tree may read: nodes, leaf order (and corners) and the mesh.
     fn working_set_bytes(&self) -> usize {
         self.heap_bytes() + self.mesh().heap_bytes()
     }
 }
 
-impl Footprint for WideTree {
+impl<N: NodeKind> Footprint for WideBvh<N> {
     fn name(&self) -> &'static str {
-        "bvh4"
+        N::NAME
     }
 
     fn triangle_count(&self) -> usize {
@@ -233,7 +230,7 @@ impl Footprint for WideTree {
     }
 
     fn heap_bytes(&self) -> usize {
-        self.nodes.len() * size_of::<WideNode>() + self.triangles.heap_bytes()
+        self.nodes.len() * size_of::<N>() + self.triangles.heap_bytes()
     }
 }
 
@@ -244,7 +241,7 @@ mod tests {
     use crate::geom::Watertight;
     use crate::query::{BatchQueries, RayQueries};
     use crate::test_support::{bunny, random_rays};
-    use crate::{BatchOptions, Hit, Kernel, Ray};
+    use crate::{BatchOptions, Hit, Interleave, Kernel, Ray};
 
     fn bits(h: Option<Hit>) -> Option<(u32, u32, u32, u32)> {
         h.map(|h| (h.triangle, h.t.to_bits(), h.u.to_bits(), h.v.to_bits()))
@@ -254,6 +251,11 @@ mod tests {
     /// bit.
     #[test]
     fn dispatched_and_portable_loops_agree() {
+        dispatched_and_portable_loops_agree_for::<WideNode>();
+        dispatched_and_portable_loops_agree_for::<WideNode8>();
+    }
+
+    fn dispatched_and_portable_loops_agree_for<N: NodeKind>() {
         #[cfg(target_arch = "x86_64")]
         if !std::arch::is_x86_feature_detected!("avx2") {
             // Written to stderr directly so the test harness shows it even on success.
@@ -263,7 +265,7 @@ mod tests {
             );
         }
         let mesh = Arc::new(bunny());
-        let tree = WideTree::build(mesh.clone(), &BuildOptions::default()).unwrap();
+        let tree = WideBvh::<N>::build(mesh.clone(), &BuildOptions::default()).unwrap();
         let mut stack = Stack::default();
         for ray in random_rays(&mesh, 20_000, 8) {
             let prepared = PreparedRay::new(&ray).unwrap();
@@ -272,7 +274,7 @@ mod tests {
                 let mut best = [Hit::none_before(prepared.tmax)];
                 let mut closest = crate::hit::Closest { best: &mut best };
                 let avx2 = k == 0;
-                dispatch::trace::<Watertight, _>(
+                dispatch::trace::<N, Watertight, _>(
                     avx2,
                     &tree,
                     &prepared,
@@ -344,10 +346,10 @@ mod tests {
     /// Meshes whose slots or nodes the words cannot address are a typed error, not wrong answers.
     #[test]
     fn too_large_is_an_error() {
-        assert!(check_size(1000, 2000).is_ok());
-        let too_many_slots = check_size(leaf_word::MAX_SLOTS + 1, 10);
+        assert!(check_size(1000, 2000, "test").is_ok());
+        let too_many_slots = check_size(leaf_word::MAX_SLOTS + 1, 10, "test");
         assert!(matches!(too_many_slots, Err(BuildError::TooLarge { .. })));
-        let too_many_nodes = check_size(10, leaf_word::LEAF_BIT as usize + 1);
+        let too_many_nodes = check_size(10, leaf_word::LEAF_BIT as usize + 1, "test");
         assert!(matches!(too_many_nodes, Err(BuildError::TooLarge { .. })));
     }
 
@@ -356,13 +358,23 @@ mod tests {
     /// live in the integration tests' zoo).
     #[test]
     fn answers_equal_the_binary_tree() {
+        answers_equal_the_binary_tree_for::<WideNode>();
+    }
+
+    /// The same for the 8-wide tree (its batches walk side by side whatever the option says).
+    #[test]
+    fn eight_wide_answers_equal_the_binary_tree() {
+        answers_equal_the_binary_tree_for::<WideNode8>();
+    }
+
+    fn answers_equal_the_binary_tree_for<N: NodeKind>() {
         let mesh = Arc::new(bunny());
         let rays = random_rays(&mesh, 20_000, 5);
         for (leaf, corners) in [(1, false), (4, false), (4, true), (16, false)] {
             let options = BuildOptions::default()
                 .with_leaf_size(leaf)
                 .with_leaf_corners(corners);
-            let wide = WideTree::build(mesh.clone(), &options).unwrap();
+            let wide = WideBvh::<N>::build(mesh.clone(), &options).unwrap();
             let binary: AabbTree = AabbTree::build(mesh.clone(), &options).unwrap();
             for interleave in [Interleave::Always, Interleave::Never] {
                 let mut batched = vec![None; rays.len()];

@@ -151,6 +151,9 @@ pub(crate) struct WideRay {
     /// which are the direction's): which planes of a node are near.
     pub(crate) octant: u32,
     pub(crate) tmin: Vec4,
+    /// Where the CPU has AVX2: the 8-wide node's box test uses it.
+    #[cfg(target_arch = "x86_64")]
+    pub(crate) avx2: Option<crate::x86::Avx2>,
 }
 
 impl WideRay {
@@ -166,6 +169,8 @@ impl WideRay {
                 | ((inv_dir.y < 0.0) as u32) << 1
                 | ((inv_dir.z < 0.0) as u32) << 2,
             tmin: Vec4::splat(tmin),
+            #[cfg(target_arch = "x86_64")]
+            avx2: crate::x86::Avx2::detect(),
         }
     }
 

@@ -3,6 +3,8 @@
 //!
 //! - [`slabs`]: one ray against a node's four boxes with SSE, twin of
 //!   [`super::node::WideRay::slabs_portable`] (compared by `node::tests`);
+//! - [`slabs8`]: one ray against an 8-wide node's eight boxes with AVX2, twin of
+//!   [`WideNode8::hits_by_halves`] (compared by `node8::tests`);
 //! - [`stream_masks`]: eight rays at a time against each box with AVX2, for the stream split,
 //!   twin of its one-ray loop (compared by `stream::tests`).
 //!
@@ -21,12 +23,14 @@ use std::arch::x86_64::{
     __m128, __m128i, __m256i, _CMP_LE_OQ, _mm_cmple_ps, _mm_loadl_epi64, _mm_max_ps, _mm_min_ps,
     _mm_movemask_ps, _mm_mul_ps, _mm_set1_ps, _mm_sub_ps, _mm256_cmp_ps, _mm256_cvtepu8_epi32,
     _mm256_load_ps, _mm256_loadu_si256, _mm256_max_ps, _mm256_min_ps, _mm256_movemask_ps,
-    _mm256_mul_ps, _mm256_permutevar8x32_epi32, _mm256_set1_ps, _mm256_storeu_si256, _mm256_sub_ps,
+    _mm256_mul_ps, _mm256_permutevar8x32_epi32, _mm256_set1_ps, _mm256_storeu_ps,
+    _mm256_storeu_si256, _mm256_sub_ps,
 };
 
 use glam::Vec4;
 
 use super::node::{Planes, WideRay};
+use super::node8::WideNode8;
 use crate::geom::PreparedRay;
 use crate::geom::aabb::EXIT_SCALE;
 pub(crate) use crate::x86::Avx2;
@@ -54,6 +58,46 @@ pub(crate) fn slabs(ray: &WideRay, planes: &Planes, tmax: f32) -> (u32, Vec4) {
         let mask = _mm_movemask_ps(_mm_cmple_ps(near, far)) as u32;
         (mask, near.into())
     }
+}
+
+/// One ray against an 8-wide node's eight boxes with AVX2, twin of
+/// [`WideNode8::hits_by_halves`] (compared by `node8::tests`): lane by lane the arithmetic of
+/// [`slabs`], with 8 lanes.
+#[inline(always)]
+pub(crate) fn slabs8(_: Avx2, ray: &WideRay, node: &WideNode8, tmax: f32) -> (u32, [f32; 8]) {
+    // SAFETY: an `Avx2` exists only if the CPU has AVX2.
+    unsafe { slabs8_avx2(ray, node, tmax) }
+}
+
+/// See [`slabs8`].
+///
+/// # Safety
+/// The CPU must support AVX2.
+#[inline]
+#[target_feature(enable = "avx2")]
+unsafe fn slabs8_avx2(ray: &WideRay, node: &WideNode8, tmax: f32) -> (u32, [f32; 8]) {
+    // Each row of `bounds` is 32 bytes at a multiple of 32 from the node's 64-byte alignment.
+    // SAFETY: the row is eight initialised `f32`s, aligned to 32 bytes.
+    let row = |row: usize| unsafe { _mm256_load_ps(node.bounds[row].as_ptr()) };
+    let mut near = _mm256_set1_ps(ray.tmin.x);
+    let mut far = _mm256_set1_ps(tmax.min(f32::MAX));
+    let scale = _mm256_set1_ps(EXIT_SCALE);
+    for axis in 0..3 {
+        let o = _mm256_set1_ps(ray.origin[axis].x);
+        let inv = _mm256_set1_ps(ray.inv_dir[axis].x);
+        let negative = ((ray.octant >> axis) & 1) as usize;
+        let near_plane = row(axis + 3 * negative);
+        let far_plane = row(axis + 3 * (1 - negative));
+        let enter = _mm256_mul_ps(_mm256_sub_ps(near_plane, o), inv);
+        let exit = _mm256_mul_ps(_mm256_mul_ps(_mm256_sub_ps(far_plane, o), inv), scale);
+        near = _mm256_max_ps(enter, near);
+        far = _mm256_min_ps(exit, far);
+    }
+    let mask = _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(near, far)) as u32;
+    let mut entries = [0.0; 8];
+    // SAFETY: `entries` is 32 writable bytes of `f32`s; an unaligned store is allowed.
+    unsafe { _mm256_storeu_ps(entries.as_mut_ptr(), near) };
+    (mask, entries)
 }
 
 /// The stream split's box tests eight rays at a time, twin of the one-ray-at-a-time loop

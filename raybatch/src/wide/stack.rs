@@ -1,21 +1,25 @@
 //! The one-ray loop's pending children: a stack in a fixed array, pushed without branches in
 //! the node's precomputed order for the ray's octant.
 //!
-//! A visit pushes at most four children and pops the nearest at once, going one level down, so
-//! a walk never holds more than three entries per level of its path plus the four of a push,
-//! and the builder keeps every path shorter than [`MAX_DEPTH`]: `3 * MAX_DEPTH + 4` entries
-//! always fit in [`DEPTH_SLOTS`]. Every index
-//! is taken modulo [`DEPTH_SLOTS`] into an array four slots longer (a push writes four slots
-//! whatever the mask), so no index can leave the array whatever `len` is: the compiler drops
-//! the bounds checks, and the depth bound keeps the index from wrapping (debug builds check it).
+//! A visit of a node of `W` children pushes at most `W` and pops the nearest at once, going
+//! one level down, so a walk never holds more than `W - 1` entries per level of its path plus
+//! the `W` of a push, and the builder keeps every path shorter than [`MAX_DEPTH`]:
+//! `(MAX_WIDTH - 1) * MAX_DEPTH + MAX_WIDTH` entries always fit in [`DEPTH_SLOTS`]. Every
+//! index is taken modulo [`DEPTH_SLOTS`] into an array [`MAX_WIDTH`] slots longer (a push
+//! writes `W` slots whatever the mask), so no index can leave the array whatever `len` is: the
+//! compiler drops the bounds checks, and the depth bound keeps the index from wrapping (debug
+//! builds check it).
 //!
 //! The walk is bound by the latency of each node's load and of picking the next child, and by
 //! mispredicted branches, more than by instruction count: a push that compressed the hit children in AVX2 registers (permute to the
 //! octant's order, a table of shuffles, one 32-byte store) took 95 fewer instructions per ray
 //! but ran 8% slower (fandisk, 1M incoherent rays: 222 against 206 ms, best of 5 x 3 passes),
 //! its choice of the next child going through a longer chain of shuffles; it was dropped.
-
-use glam::Vec4;
+//! Two more that lost (paired runs, fandisk, 1M incoherent rays, one thread, best of 2 x 3
+//! passes): taking the nearest hit child straight from registers instead of popping it back
+//! (a select chain: 189 -> 224 ms; a first-hit table and a branch on "any child hit": 190 ->
+//! 193), and, for 8-wide nodes, the new length from the mask's `popcnt` instead of the writes'
+//! running position (170 -> 178).
 
 use crate::bvh::build::MAX_DEPTH;
 
@@ -27,22 +31,27 @@ pub(crate) struct Pending {
     pub(crate) entry: f32,
 }
 
-/// Slots a walk can use: a power of two of at least `3 * MAX_DEPTH + 4`.
-const DEPTH_SLOTS: usize = 512;
-const _: () = assert!(3 * MAX_DEPTH + 4 <= DEPTH_SLOTS && DEPTH_SLOTS.is_power_of_two());
+/// The widest node the stack takes.
+const MAX_WIDTH: usize = 8;
+
+/// Slots a walk can use: a power of two of at least `(MAX_WIDTH - 1) * MAX_DEPTH + MAX_WIDTH`.
+const DEPTH_SLOTS: usize = 1024;
+const _: () = assert!(
+    (MAX_WIDTH - 1) * MAX_DEPTH + MAX_WIDTH <= DEPTH_SLOTS && DEPTH_SLOTS.is_power_of_two()
+);
 
 /// The one-ray loop's stack (see the module docs).
 #[derive(Clone, Debug)]
 pub(crate) struct Stack {
-    /// `DEPTH_SLOTS` plus the four a push may write past the top.
-    slots: Box<[Pending; DEPTH_SLOTS + 4]>,
+    /// `DEPTH_SLOTS` plus the `MAX_WIDTH` a push may write past the top.
+    slots: Box<[Pending; DEPTH_SLOTS + MAX_WIDTH]>,
     len: usize,
 }
 
 impl Default for Stack {
     fn default() -> Self {
         Self {
-            slots: Box::new([Pending::default(); DEPTH_SLOTS + 4]),
+            slots: Box::new([Pending::default(); DEPTH_SLOTS + MAX_WIDTH]),
             len: 0,
         }
     }
@@ -56,14 +65,21 @@ impl Stack {
     }
 
     /// Pushes the children hit (bit `k` of `mask` for slot `k`, entering at `entries[k]`) in
-    /// the node's order for the ray's octant (`order`, see
-    /// [`super::node::WideNode::order_children`]), farthest first, so the nearest is on top.
+    /// the node's order for the ray's octant (`order`: the slots nearest first, `log2(W)` bits
+    /// each, see [`super::node::WideNode::order_children`]), farthest first, so the nearest is
+    /// on top.
     #[inline(always)]
-    pub(crate) fn push_hits(&mut self, mask: u32, entries: Vec4, children: &[u32; 4], order: u8) {
-        debug_assert!(mask < 16);
-        debug_assert!(self.len + 4 <= DEPTH_SLOTS, "a walk deeper than MAX_DEPTH");
+    pub(crate) fn push_hits<const W: usize>(
+        &mut self,
+        mask: u32,
+        entries: &[f32; W],
+        children: &[u32; W],
+        order: u32,
+    ) {
+        debug_assert!(mask < 1 << W);
+        debug_assert!(self.len + W <= DEPTH_SLOTS, "a walk deeper than MAX_DEPTH");
         let base = self.len % DEPTH_SLOTS;
-        let top: &mut [Pending; 4] = (&mut self.slots[base..base + 4]).try_into().unwrap();
+        let top: &mut [Pending; W] = (&mut self.slots[base..base + W]).try_into().unwrap();
         self.len = base + push(top, mask, entries, children, order);
     }
 
@@ -79,11 +95,18 @@ impl Stack {
 /// is written at the top, which moves past it only if the slot was hit, so which children a
 /// ray hits never costs a mispredicted branch.
 #[inline(always)]
-fn push(top: &mut [Pending; 4], mask: u32, entries: Vec4, children: &[u32; 4], order: u8) -> usize {
-    let entries = entries.to_array();
+fn push<const W: usize>(
+    top: &mut [Pending; W],
+    mask: u32,
+    entries: &[f32; W],
+    children: &[u32; W],
+    order: u32,
+) -> usize {
+    const { assert!(W.is_power_of_two() && W <= MAX_WIDTH) };
+    let bits = W.trailing_zeros();
     let mut pushed = 0;
-    for k in (0..4).rev() {
-        let slot = ((order >> (2 * k)) & 3) as usize;
+    for k in (0..W as u32).rev() {
+        let slot = ((order >> (bits * k)) as usize) & (W - 1);
         top[pushed] = Pending {
             word: children[slot],
             entry: entries[slot],
@@ -115,11 +138,11 @@ mod tests {
         let mut stack = Stack::default();
         for order in permutations() {
             for mask in 0..16u32 {
-                let entries = Vec4::from_array(std::array::from_fn(|_| rng.range(0.0, 9.0)));
+                let entries: [f32; 4] = std::array::from_fn(|_| rng.range(0.0, 9.0));
                 let children = std::array::from_fn(|_| rng.range(0.0, 1e6) as u32);
                 stack.reset();
                 stack.len = 5;
-                stack.push_hits(mask, entries, &children, order);
+                stack.push_hits::<4>(mask, &entries, &children, u32::from(order));
                 let mut popped = Vec::new();
                 while stack.len > 5 {
                     let pending = stack.pop().unwrap();
@@ -132,6 +155,35 @@ mod tests {
                     .collect();
                 assert_eq!(popped, expected, "order {order:08b} mask {mask:04b}");
             }
+        }
+    }
+
+    /// The same for 8-wide nodes: random orders (3 bits a slot) and masks.
+    #[test]
+    fn pops_the_hit_children_of_eight_in_order() {
+        let mut rng = TestRng::new(4);
+        let mut stack = Stack::default();
+        for _ in 0..5_000 {
+            let mut slots: Vec<u32> = (0..8).collect();
+            for i in (1..8).rev() {
+                slots.swap(i, rng.range(0.0, i as f32 + 1.0) as usize % (i + 1));
+            }
+            let order = slots.iter().rev().fold(0, |word, &slot| (word << 3) | slot);
+            let mask = rng.range(0.0, 256.0) as u32 & 255;
+            let entries: [f32; 8] = std::array::from_fn(|_| rng.range(0.0, 9.0));
+            let children = std::array::from_fn(|_| rng.range(0.0, 1e6) as u32);
+            stack.reset();
+            stack.push_hits::<8>(mask, &entries, &children, order);
+            let popped: Vec<_> = std::iter::from_fn(|| stack.pop())
+                .map(|p| (p.word, p.entry))
+                .collect();
+            let expected: Vec<_> = slots
+                .iter()
+                .map(|&slot| slot as usize)
+                .filter(|&slot| mask & (1 << slot) != 0)
+                .map(|slot| (children[slot], entries[slot]))
+                .collect();
+            assert_eq!(popped, expected, "order {slots:?} mask {mask:08b}");
         }
     }
 }

@@ -270,7 +270,7 @@ impl Walk<'_> {
                 let ray = &mut self.rays[i];
                 let id = self.batch_ids[i];
                 let mut tmax = ray.tmax;
-                super::single::trace_from::<K, V>(
+                super::single::trace_from::<WideNode, K, V>(
                     self.tree, ray, id, list.word, &mut tmax, self.stack, visitor,
                 );
                 ray.tmax = tmax;

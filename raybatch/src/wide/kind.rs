@@ -1,0 +1,167 @@
+//! What the wide walks need of a node, so that one tree type, one collapse, one one-ray loop
+//! and one side-by-side engine serve nodes of four children ([`WideNode`], the default tree,
+//! with its own stream engine) and of eight ([`WideNode8`], for single rays).
+//!
+//! Eight children halve the node visits of a walk (each a dependent load: the one-ray loop is
+//! bound by their latency, not by its instruction count), for a wider box test and push.
+
+use std::fmt::Debug;
+
+use super::node::{WideNode, WideRay};
+use super::node8::WideNode8;
+use super::stack::Stack;
+use super::{WideBvh, WideScratch, dispatch, interleaves};
+use crate::accel::RayStream;
+use crate::batch::Interleave;
+use crate::geom::{Aabb, TriangleTest};
+use crate::hit::Visitor;
+use crate::prefetch::prefetch;
+
+/// A wide node layout: [`WideNode`] or [`WideNode8`] (sealed: what the walks need of a node
+/// is the crate's own, in [`layout::Layout`]).
+pub trait NodeKind: layout::Layout + Clone + Copy + Debug + Send + Sync + 'static {}
+
+impl NodeKind for WideNode {}
+impl NodeKind for WideNode8 {}
+
+// The walk's types are the crate's own; the trait cannot be named outside the crate (its module
+// is private), so nothing outside can call these methods.
+#[allow(private_interfaces)]
+mod layout {
+    use super::*;
+
+    /// What the collapse and the walks need of a node layout.
+    pub trait Layout: Sized {
+        /// Children per node.
+        const WIDTH: usize;
+        /// The structure's name in tables ([`crate::Footprint::name`]).
+        const NAME: &'static str;
+        /// The layout's name in error messages.
+        const FORMAT: &'static str;
+
+        /// A node whose slots all hold empty boxes (which no ray enters).
+        fn empty() -> Self;
+        /// Puts `bounds` and `word` in slot `slot` (slots are filled from 0 up).
+        fn set(&mut self, slot: usize, bounds: &Aabb, word: u32);
+        /// Computes the per-octant child orders from the slots set so far.
+        fn order_children(&mut self);
+
+        /// Tests the ray against every child's box and pushes the children it enters within
+        /// `[tmin, tmax]` on `stack`, in the node's order for the ray's octant, nearest on top.
+        fn push_hits(&self, ray: &WideRay, tmax: f32, stack: &mut Stack);
+
+        /// Prefetches the node's cache lines.
+        fn prefetch(&self);
+
+        /// Runs a batch's stream of rays through `tree` (the layout's batched engine).
+        fn trace_stream<K: TriangleTest, V: Visitor>(
+            tree: &WideBvh<Self>,
+            stream: &mut RayStream<'_>,
+            scratch: &mut WideScratch,
+            visitor: &mut V,
+        ) where
+            Self: NodeKind;
+    }
+}
+
+#[allow(private_interfaces)]
+impl layout::Layout for WideNode {
+    const WIDTH: usize = super::node::WIDTH;
+    const NAME: &'static str = "bvh4";
+    const FORMAT: &'static str = "4-wide nodes (128 B)";
+
+    fn empty() -> Self {
+        WideNode::empty()
+    }
+
+    fn set(&mut self, slot: usize, bounds: &Aabb, word: u32) {
+        WideNode::set(self, slot, bounds, word);
+    }
+
+    fn order_children(&mut self) {
+        WideNode::order_children(self);
+    }
+
+    #[inline(always)]
+    fn push_hits(&self, ray: &WideRay, tmax: f32, stack: &mut Stack) {
+        let (mask, entries) = ray.hits(self, tmax);
+        let order = u32::from(self.order(ray.octant));
+        stack.push_hits::<4>(mask, &entries.to_array(), &self.child, order);
+    }
+
+    #[inline(always)]
+    fn prefetch(&self) {
+        prefetch(self);
+        prefetch(&self.bounds[4]);
+    }
+
+    /// Nodes shared by the rays that reach them, or rays side by side on large trees and short
+    /// streams ([`Interleave::Auto`]).
+    fn trace_stream<K: TriangleTest, V: Visitor>(
+        tree: &WideBvh<Self>,
+        stream: &mut RayStream<'_>,
+        scratch: &mut WideScratch,
+        visitor: &mut V,
+    ) {
+        let interleave = match stream.options().interleave {
+            Interleave::Always => true,
+            Interleave::Never => false,
+            Interleave::Auto => interleaves(tree.working_set_bytes(), stream.len()),
+        };
+        if interleave {
+            dispatch::trace_interleaved::<Self, K, V>(
+                true,
+                tree,
+                stream,
+                &mut scratch.stacks,
+                visitor,
+            )
+        } else {
+            dispatch::trace_shared::<K, V>(true, tree, stream, scratch, visitor)
+        }
+    }
+}
+
+#[allow(private_interfaces)]
+impl layout::Layout for WideNode8 {
+    const WIDTH: usize = super::node8::WIDTH;
+    const NAME: &'static str = "bvh8";
+    const FORMAT: &'static str = "8-wide nodes (256 B)";
+
+    fn empty() -> Self {
+        WideNode8::empty()
+    }
+
+    fn set(&mut self, slot: usize, bounds: &Aabb, word: u32) {
+        WideNode8::set(self, slot, bounds, word);
+    }
+
+    fn order_children(&mut self) {
+        WideNode8::order_children(self);
+    }
+
+    #[inline(always)]
+    fn push_hits(&self, ray: &WideRay, tmax: f32, stack: &mut Stack) {
+        let (mask, entries) = self.hits(ray, tmax);
+        stack.push_hits::<8>(mask, &entries, &self.child, self.order(ray.octant));
+    }
+
+    #[inline(always)]
+    fn prefetch(&self) {
+        prefetch(&self.bounds[0]);
+        prefetch(&self.bounds[2]);
+        prefetch(&self.bounds[4]);
+        prefetch(&self.child);
+    }
+
+    /// Rays side by side, whatever the tree's size: the eight-wide tree has no stream engine
+    /// of its own (the 4-wide tree's is the batched default).
+    fn trace_stream<K: TriangleTest, V: Visitor>(
+        tree: &WideBvh<Self>,
+        stream: &mut RayStream<'_>,
+        scratch: &mut WideScratch,
+        visitor: &mut V,
+    ) {
+        dispatch::trace_interleaved::<Self, K, V>(true, tree, stream, &mut scratch.stacks, visitor)
+    }
+}

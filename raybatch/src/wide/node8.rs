@@ -1,0 +1,213 @@
+//! The 8-wide node and its box test: eight children's boxes in structure-of-arrays form,
+//! tested against one ray in one AVX2 pass (two 4-lane passes without AVX2).
+//!
+//! ```text
+//! bounds: [[f32; 8]; 6]  min x, min y, min z, max x, max y, max z, one lane per child
+//! child:  [u32; 8]       child words, as in the 4-wide node
+//! order:  [u32; 8]       per ray octant, the used slots nearest first, then the unused
+//!                        (3 bits each, position k in bits 3k..3k + 3)
+//! ```
+//! 256 bytes, four cache lines, aligned to 64. Unused slots hold empty boxes, which no ray
+//! enters. Each lane does the scalar slab test's arithmetic ([`crate::geom::aabb::box_entry`])
+//! exactly as the 4-wide node's lanes do ([`super::node`] says how); the AVX2 version and its
+//! portable twin (the 4-wide test on each half) are compared by this module's tests.
+
+use glam::{Vec3, Vec4};
+
+use super::node::{Planes, WideRay};
+use crate::bvh::ordering::octant_diagonal;
+use crate::geom::Aabb;
+
+/// Children per node.
+pub const WIDTH: usize = 8;
+
+/// Bits of a slot number in an order word.
+const SLOT_BITS: u32 = 3;
+
+/// One 8-wide node (see the module docs).
+#[derive(Clone, Copy, Debug)]
+#[repr(C, align(64))]
+pub struct WideNode8 {
+    /// Child boxes by coordinate: min x, min y, min z, max x, max y, max z.
+    pub(crate) bounds: [[f32; WIDTH]; 6],
+    /// Child words.
+    pub(crate) child: [u32; WIDTH],
+    /// Per octant, every slot, the used ones nearest first ([`SLOT_BITS`] bits each).
+    order: [u32; 8],
+}
+
+const _: () = assert!(size_of::<WideNode8>() == 256);
+
+impl WideNode8 {
+    /// A node whose slots all hold empty boxes.
+    pub(crate) fn empty() -> Self {
+        let (lo, hi) = ([f32::INFINITY; WIDTH], [f32::NEG_INFINITY; WIDTH]);
+        Self {
+            bounds: [lo, lo, lo, hi, hi, hi],
+            child: [0; WIDTH],
+            order: [0; 8],
+        }
+    }
+
+    /// Puts `bounds` and `word` in slot `slot`.
+    pub(crate) fn set(&mut self, slot: usize, bounds: &Aabb, word: u32) {
+        for axis in 0..3 {
+            self.bounds[axis][slot] = bounds.min[axis];
+            self.bounds[3 + axis][slot] = bounds.max[axis];
+        }
+        self.child[slot] = word;
+    }
+
+    /// True if slot `slot` holds a box (an unused slot's is empty).
+    fn used(&self, slot: usize) -> bool {
+        self.bounds[0][slot] <= self.bounds[3][slot]
+    }
+
+    /// Computes the per-octant order words: for each direction octant, the used slots sorted
+    /// by the projection of their centres on the octant's diagonal, then the unused ones.
+    pub(crate) fn order_children(&mut self) {
+        for octant in 0..8 {
+            let diagonal = octant_diagonal(octant);
+            let along = |slot: usize| self.slot_bounds(slot).center().dot(diagonal);
+            let (mut slots, unused): (Vec<usize>, Vec<usize>) =
+                (0..WIDTH).partition(|&slot| self.used(slot));
+            slots.sort_by(|&a, &b| along(a).total_cmp(&along(b)).then(a.cmp(&b)));
+            slots.extend(unused);
+            self.order[octant as usize] = slots
+                .iter()
+                .rev()
+                .fold(0, |word, &slot| (word << SLOT_BITS) | slot as u32);
+        }
+    }
+
+    /// The order word of direction octant `octant`.
+    #[inline(always)]
+    pub(crate) fn order(&self, octant: u32) -> u32 {
+        self.order[octant as usize & 7]
+    }
+
+    /// The box of slot `slot`.
+    pub(crate) fn slot_bounds(&self, slot: usize) -> Aabb {
+        let b = &self.bounds;
+        Aabb::new(
+            Vec3::new(b[0][slot], b[1][slot], b[2][slot]),
+            Vec3::new(b[3][slot], b[4][slot], b[5][slot]),
+        )
+    }
+
+    /// Which child boxes the ray enters within `[tmin, tmax]` (bit `k` for slot `k`) and the
+    /// entry distances (meaningful for those slots only), lane by lane the scalar slab test.
+    #[inline(always)]
+    pub(crate) fn hits(&self, ray: &WideRay, tmax: f32) -> (u32, [f32; WIDTH]) {
+        #[cfg(target_arch = "x86_64")]
+        if let Some(avx2) = ray.avx2 {
+            return super::simd::slabs8(avx2, ray, self, tmax);
+        }
+        self.hits_by_halves(ray, tmax)
+    }
+
+    /// [`WideNode8::hits`] as two 4-wide box tests: the portable twin of the AVX2 version.
+    #[inline(always)]
+    pub(crate) fn hits_by_halves(&self, ray: &WideRay, tmax: f32) -> (u32, [f32; WIDTH]) {
+        let mut mask = 0;
+        let mut entries = [0.0; WIDTH];
+        for half in 0..2 {
+            let (mut near, mut far) = ([Vec4::ZERO; 3], [Vec4::ZERO; 3]);
+            for axis in 0..3 {
+                let negative = (ray.octant >> axis) & 1 != 0;
+                let (near_row, far_row) = if negative {
+                    (axis + 3, axis)
+                } else {
+                    (axis, axis + 3)
+                };
+                near[axis] = Vec4::from_slice(&self.bounds[near_row][4 * half..]);
+                far[axis] = Vec4::from_slice(&self.bounds[far_row][4 * half..]);
+            }
+            let (m, e) = ray.hits_planes(&Planes { near, far }, tmax);
+            mask |= m << (4 * half);
+            e.write_to_slice(&mut entries[4 * half..]);
+        }
+        (mask, entries)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::geom::{PreparedRay, Ray};
+    use crate::test_support::TestRng;
+
+    /// The order words list the used slots nearest first along each octant's diagonal, then
+    /// the unused ones, each slot once.
+    #[test]
+    fn children_are_ordered_per_octant() {
+        let mut node = WideNode8::empty();
+        // Five children along x at x = 4, 0, 3, 1, 2 (slots 0-4); slots 5-7 unused.
+        for (slot, x) in [4.0f32, 0.0, 3.0, 1.0, 2.0].into_iter().enumerate() {
+            let min = Vec3::new(x, 0.0, 0.0);
+            node.set(slot, &Aabb::new(min, min + 0.5), slot as u32);
+        }
+        node.order_children();
+        let order = |octant: u32| -> Vec<u32> {
+            (0..WIDTH as u32)
+                .map(|k| (node.order(octant) >> (SLOT_BITS * k)) & 7)
+                .collect()
+        };
+        assert_eq!(order(0), [1, 3, 4, 2, 0, 5, 6, 7]);
+        assert_eq!(order(1), [0, 2, 4, 3, 1, 5, 6, 7]);
+    }
+
+    /// Every lane of both versions (AVX2 where the CPU has it, and two 4-wide halves) agrees
+    /// with the scalar slab test: same hit or miss, same entry distance.
+    #[test]
+    fn lanes_match_the_scalar_box_test() {
+        let mut rng = TestRng::new(12);
+        for round in 0..20_000 {
+            let mut node = WideNode8::empty();
+            let slots = 1 + round % WIDTH;
+            let mut boxes = Vec::new();
+            for slot in 0..slots {
+                let a = rng.vec3(2.0);
+                // Flat and degenerate boxes, and coordinates shared with the ray's origin.
+                let mut b = a + rng.vec3(1.0).abs() * if slot == 1 { 0.0 } else { 1.0 };
+                if slot == 2 {
+                    b.y = a.y;
+                }
+                let bounds = Aabb::new(a.min(b), a.max(b));
+                node.set(slot, &bounds, slot as u32);
+                boxes.push(bounds);
+            }
+            let mut origin = rng.vec3(3.0);
+            if round % 7 == 0 {
+                origin.x = boxes[0].min.x;
+            }
+            let mut dir = rng.vec3(1.0);
+            if round % 5 == 0 {
+                dir.y = if round % 10 == 0 { 0.0 } else { -0.0 };
+            }
+            let tmax = if round % 3 == 0 {
+                f32::INFINITY
+            } else {
+                rng.range(0.0, 5.0)
+            };
+            let Some(ray) = PreparedRay::new(&Ray::with_range(origin, dir, 0.0, tmax)) else {
+                continue;
+            };
+            let wide_ray = WideRay::new(&ray);
+            let (mask, entries) = node.hits(&wide_ray, tmax);
+            let (halves_mask, halves_entries) = node.hits_by_halves(&wide_ray, tmax);
+            assert_eq!(mask, halves_mask, "{boxes:?}, {ray:?}");
+            for slot in 0..WIDTH {
+                let scalar = boxes
+                    .get(slot)
+                    .map_or(f32::INFINITY, |b| b.entry(&ray, tmax));
+                let hit = mask & (1 << slot) != 0;
+                assert_eq!(hit, scalar < f32::INFINITY, "slot {slot}, {ray:?}");
+                if hit {
+                    assert_eq!(entries[slot], scalar, "slot {slot} of {boxes:?}, {ray:?}");
+                    assert_eq!(halves_entries[slot], scalar, "slot {slot}, {ray:?}");
+                }
+            }
+        }
+    }
+}
