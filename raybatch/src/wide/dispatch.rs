@@ -49,6 +49,54 @@ pub(crate) fn trace<N: NodeKind, K: TriangleTest, V: Visitor>(
     avx2::run(one, avx2)
 }
 
+/// Every ray of a stream through [`single::trace`], one at a time, as a [`Loop`].
+struct Each<'a, 's, N: NodeKind, K, V> {
+    tree: &'a WideBvh<N>,
+    stream: &'a mut RayStream<'s>,
+    stack: &'a mut Stack,
+    visitor: &'a mut V,
+    kernel: std::marker::PhantomData<K>,
+}
+
+impl<N: NodeKind, K: TriangleTest, V: Visitor> Loop for Each<'_, '_, N, K, V> {
+    type Output = ();
+    #[inline(always)]
+    fn run(self) {
+        let Each {
+            tree,
+            stream,
+            stack,
+            visitor,
+            ..
+        } = self;
+        for i in 0..stream.len() {
+            let ray = stream.ray(i);
+            let tmax = single::trace::<N, K, V>(tree, &ray, stream.id(i), stack, visitor);
+            stream.set_tmax(i, tmax);
+        }
+    }
+}
+
+/// Every ray of `stream` through [`single::trace`], one at a time, in the AVX2 copy if `avx2`
+/// and the CPU has it.
+#[inline]
+pub(crate) fn trace_each<N: NodeKind, K: TriangleTest, V: Visitor>(
+    avx2: bool,
+    tree: &WideBvh<N>,
+    stream: &mut RayStream<'_>,
+    stack: &mut Stack,
+    visitor: &mut V,
+) {
+    let task = Each::<N, K, V> {
+        tree,
+        stream,
+        stack,
+        visitor,
+        kernel: std::marker::PhantomData,
+    };
+    avx2::run(task, avx2)
+}
+
 /// A stream through [`interleaved::trace_stream`], as a [`Loop`].
 struct Interleaved<'a, 's, N: NodeKind, K, V> {
     tree: &'a WideBvh<N>,

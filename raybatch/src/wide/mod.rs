@@ -34,6 +34,7 @@ use std::sync::Arc;
 use glam::Vec3;
 
 use crate::accel::{Accel, Footprint, RayStream};
+use crate::batch::Interleave;
 use crate::bvh::build::{BuildError, BuildOptions, build};
 use crate::bvh::leaves::LeafTriangles;
 use crate::bvh::nodes::leaf_word;
@@ -210,6 +211,18 @@ fn interleaves(working_set: usize, rays: usize) -> bool {
 }
 
 impl<N: NodeKind> WideBvh<N> {
+    /// True if `stream` is to be walked by the side-by-side engine ([`BatchOptions::interleave`],
+    /// [`Interleave::Auto`] deciding by [`interleaves`]).
+    ///
+    /// [`BatchOptions::interleave`]: crate::BatchOptions::interleave
+    fn walks_side_by_side(&self, stream: &RayStream<'_>) -> bool {
+        match stream.options().interleave {
+            Interleave::Always => true,
+            Interleave::Never => false,
+            Interleave::Auto => interleaves(self.working_set_bytes(), stream.len()),
+        }
+    }
+
     /// What a walk through the tree may read: nodes, leaf order (and corners) and the mesh.
     fn working_set_bytes(&self) -> usize {
         self.heap_bytes() + self.mesh().heap_bytes()
