@@ -5,7 +5,8 @@ use raybatch::{BatchQueries, BuildOptions, Hit, Mesh, Ray, RayQueries, WideTree}
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mesh = Mesh::load_obj("data/stanford-bunny.obj")?;
-    // The 4-wide tree, the fastest per ray; `AabbTree`, `QuantizedAabbTree` answer the same.
+    // The 4-wide tree, the fastest batched; `WideTree8` (1.1x per ray, 28% more memory),
+    // `AabbTree`, `QuantizedAabbTree` answer the same.
     let tree = WideTree::build(mesh, &BuildOptions::default())?;
 
     // One ray at a time.

@@ -17,7 +17,7 @@ use crate::hit::Visitor;
 use crate::prefetch::prefetch;
 
 /// A wide node layout: [`WideNode`] or [`WideNode8`] (sealed: what the walks need of a node
-/// is the crate's own, in [`layout::Layout`]).
+/// is the crate's own, in the private `layout::Layout`).
 pub trait NodeKind: layout::Layout + Clone + Copy + Debug + Send + Sync + 'static {}
 
 impl NodeKind for WideNode {}
@@ -26,7 +26,7 @@ impl NodeKind for WideNode8 {}
 // The walk's types are the crate's own; the trait cannot be named outside the crate (its module
 // is private), so nothing outside can call these methods.
 #[allow(private_interfaces)]
-mod layout {
+pub(crate) mod layout {
     use super::*;
 
     /// What the collapse and the walks need of a node layout.
@@ -52,8 +52,9 @@ mod layout {
         /// Prefetches the node's cache lines.
         fn prefetch(&self);
 
-        /// Runs a batch's stream of rays through `tree` (the layout's batched engine).
-        fn trace_stream<K: TriangleTest, V: Visitor>(
+        /// Runs a batch's stream of rays through `tree` with the layout's own batched engine,
+        /// for the streams its tree does not walk side by side (`WideBvh::walks_side_by_side`).
+        fn trace_own_stream<K: TriangleTest, V: Visitor>(
             tree: &WideBvh<Self>,
             stream: &mut RayStream<'_>,
             scratch: &mut WideScratch,
@@ -94,80 +95,13 @@ impl layout::Layout for WideNode {
         prefetch(&self.bounds[4]);
     }
 
-    /// Nodes shared by the rays that reach them, or rays side by side on large trees and short
-    /// streams ([`Interleave::Auto`]).
-    fn trace_stream<K: TriangleTest, V: Visitor>(
+    /// Nodes shared by the rays that reach them.
+    fn trace_own_stream<K: TriangleTest, V: Visitor>(
         tree: &WideBvh<Self>,
         stream: &mut RayStream<'_>,
         scratch: &mut WideScratch,
         visitor: &mut V,
     ) {
-        if tree.walks_side_by_side(stream) {
-            dispatch::trace_interleaved::<Self, K, V>(
-                true,
-                tree,
-                stream,
-                &mut scratch.stacks,
-                visitor,
-            )
-        } else {
-            dispatch::trace_shared::<K, V>(true, tree, stream, scratch, visitor)
-        }
-    }
-}
-
-#[allow(private_interfaces)]
-impl layout::Layout for WideNode8 {
-    const WIDTH: usize = super::node8::WIDTH;
-    const NAME: &'static str = "bvh8";
-    const FORMAT: &'static str = "8-wide nodes (256 B)";
-
-    fn empty() -> Self {
-        WideNode8::empty()
-    }
-
-    fn set(&mut self, slot: usize, bounds: &Aabb, word: u32) {
-        WideNode8::set(self, slot, bounds, word);
-    }
-
-    fn order_children(&mut self) {
-        WideNode8::order_children(self);
-    }
-
-    #[inline(always)]
-    fn push_hits(&self, ray: &WideRay, tmax: f32, stack: &mut Stack) {
-        let (mask, entries) = self.hits(ray, tmax);
-        stack.push_hits::<8>(mask, &entries, &self.child, self.order(ray.octant));
-    }
-
-    #[inline(always)]
-    fn prefetch(&self) {
-        prefetch(&self.bounds[0]);
-        prefetch(&self.bounds[2]);
-        prefetch(&self.bounds[4]);
-        prefetch(&self.child);
-    }
-
-    /// Rays side by side where the 4-wide tree would walk them so, else one at a time: the
-    /// 8-wide tree has no stream engine of its own (the 4-wide tree's is the batched default),
-    /// and on a tree that fits the caches walking side by side only costs (fandisk, 1M
-    /// incoherent rays: 198 ms side by side against 186 one at a time).
-    fn trace_stream<K: TriangleTest, V: Visitor>(
-        tree: &WideBvh<Self>,
-        stream: &mut RayStream<'_>,
-        scratch: &mut WideScratch,
-        visitor: &mut V,
-    ) {
-        if tree.walks_side_by_side(stream) {
-            dispatch::trace_interleaved::<Self, K, V>(
-                true,
-                tree,
-                stream,
-                &mut scratch.stacks,
-                visitor,
-            )
-        } else {
-            dispatch::trace_each::<Self, K, V>(true, tree, stream, &mut scratch.stack, visitor)
-        }
+        dispatch::trace_shared::<K, V>(true, tree, stream, scratch, visitor)
     }
 }

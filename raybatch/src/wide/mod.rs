@@ -170,14 +170,21 @@ impl<N: NodeKind> Accel for WideBvh<N> {
         dispatch::trace::<N, K, V>(true, self, ray, id, &mut scratch.stack, visitor)
     }
 
-    /// The layout's batched engine ([`NodeKind::trace_stream`]).
+    /// Rays side by side on large trees and short streams ([`Interleave::Auto`]), else the
+    /// layout's own engine (`Layout::trace_own_stream` in `kind.rs`): nodes shared by the rays
+    /// that reach them (4-wide), or one ray at a time (8-wide).
     fn trace_stream<K: TriangleTest, V: Visitor>(
         &self,
         stream: &mut RayStream<'_>,
         scratch: &mut WideScratch,
         visitor: &mut V,
     ) {
-        N::trace_stream::<K, V>(self, stream, scratch, visitor)
+        if self.walks_side_by_side(stream) {
+            let stacks = &mut scratch.stacks;
+            dispatch::trace_interleaved::<N, K, V>(true, self, stream, stacks, visitor)
+        } else {
+            N::trace_own_stream::<K, V>(self, stream, scratch, visitor)
+        }
     }
 }
 

@@ -217,7 +217,7 @@ impl WideRay {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
     use crate::geom::Ray;
     use crate::test_support::TestRng;
@@ -242,40 +242,54 @@ mod tests {
 
     /// Every lane of both versions (SSE where built for x86-64, and the portable one) agrees
     /// with the scalar slab test: same hit or miss, same entry distance.
-    #[test]
-    fn lanes_match_the_scalar_box_test() {
-        let mut rng = TestRng::new(11);
-        for round in 0..20_000 {
-            let mut node = WideNode::empty();
-            let mut boxes = Vec::new();
-            let slots = 1 + round % WIDTH;
-            for slot in 0..slots {
+    /// Round `round` of a box-test comparison: `slots` random boxes (flat and degenerate ones
+    /// among them) and a ray against them (some starting on a box's plane, some with a zero
+    /// direction component of either sign, finite and infinite ranges), with its range end;
+    /// `None` when the ray is invalid. Shared with the 8-wide node's tests.
+    pub(crate) fn box_test_case(
+        rng: &mut TestRng,
+        round: usize,
+        slots: usize,
+    ) -> Option<(Vec<Aabb>, PreparedRay, f32)> {
+        let boxes: Vec<Aabb> = (0..slots)
+            .map(|slot| {
                 let a = rng.vec3(2.0);
-                // Flat and degenerate boxes, and coordinates shared with the ray's origin.
                 let mut b = a + rng.vec3(1.0).abs() * if slot == 1 { 0.0 } else { 1.0 };
                 if slot == 2 {
                     b.y = a.y;
                 }
-                let bounds = Aabb::new(a.min(b), a.max(b));
-                node.set(slot, &bounds, slot as u32);
-                boxes.push(bounds);
-            }
-            let mut origin = rng.vec3(3.0);
-            if round % 7 == 0 {
-                origin.x = boxes[0].min.x;
-            }
-            let mut dir = rng.vec3(1.0);
-            if round % 5 == 0 {
-                dir.y = if round % 10 == 0 { 0.0 } else { -0.0 };
-            }
-            let tmax = if round % 3 == 0 {
-                f32::INFINITY
-            } else {
-                rng.range(0.0, 5.0)
-            };
-            let Some(ray) = PreparedRay::new(&Ray::with_range(origin, dir, 0.0, tmax)) else {
+                Aabb::new(a.min(b), a.max(b))
+            })
+            .collect();
+        let mut origin = rng.vec3(3.0);
+        if round.is_multiple_of(7) {
+            origin.x = boxes[0].min.x;
+        }
+        let mut dir = rng.vec3(1.0);
+        if round.is_multiple_of(5) {
+            dir.y = if round.is_multiple_of(10) { 0.0 } else { -0.0 };
+        }
+        let tmax = if round.is_multiple_of(3) {
+            f32::INFINITY
+        } else {
+            rng.range(0.0, 5.0)
+        };
+        let ray = PreparedRay::new(&Ray::with_range(origin, dir, 0.0, tmax))?;
+        Some((boxes, ray, tmax))
+    }
+
+    #[test]
+    fn lanes_match_the_scalar_box_test() {
+        let mut rng = TestRng::new(11);
+        for round in 0..20_000 {
+            let slots = 1 + round % WIDTH;
+            let Some((boxes, ray, tmax)) = box_test_case(&mut rng, round, slots) else {
                 continue;
             };
+            let mut node = WideNode::empty();
+            for (slot, bounds) in boxes.iter().enumerate() {
+                node.set(slot, bounds, slot as u32);
+            }
             let wide_ray = WideRay::new(&ray);
             let (mask, entries) = wide_ray.hits(&node, tmax);
             let planes = node.planes(wide_ray.octant);
