@@ -1,4 +1,5 @@
-//! The 4-wide loops (one ray, nodes shared, side by side) in their baseline and AVX2 copies ([`crate::traverse::avx2`]).
+//! The wide trees' loops (one ray, rays one at a time, nodes shared, side by side) in their
+//! baseline and AVX2 copies ([`crate::traverse::avx2`]).
 //! With AVX2 (and the VEX encoding it brings) the box test and the triangle kernels need fewer
 //! register copies; `wide::tests` compares the two copies.
 

@@ -1,12 +1,12 @@
-//! Several rays walked side by side through the 4-wide tree, one loop turn each in turn: the
-//! batched engine of [`super::WideTree`].
+//! Several rays walked side by side through a wide tree, one loop turn each in turn: the
+//! batched engine of the wide trees ([`super::WideBvh`]) on large trees and short streams.
 //!
 //! On a mesh whose tree does not fit the L2 cache, the one-ray loop spends most of its time
 //! waiting: each node read depends on the previous node's answer, and a leaf's triangles are a
 //! chain of three dependent reads (slot -> id -> vertex indices -> corners), so nothing overlaps
 //! the misses. Here [`LANES`] rays each keep their own loop state (the next item, a stack,
 //! their range end) and take turns. After a turn a ray prefetches what its next turn reads (the
-//! next node's two cache lines, or the next link of the leaf's chain, one link per turn), and
+//! next node's cache lines, or the next link of the leaf's chain, one link per turn), and
 //! by the time its turn comes again the other rays' turns have hidden the latency.
 //!
 //! A turn is the one-ray loop's own step ([`super::single::step`]), so each ray visits the same

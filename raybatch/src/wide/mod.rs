@@ -1,16 +1,22 @@
-//! The 4-wide BVH: the binary SAH tree collapsed so that each node holds four children's
-//! boxes, tested against a ray in one SIMD pass: fewer, slightly longer node visits than the
-//! binary tree's, and fewer stack entries.
+//! The wide BVHs: the binary SAH tree collapsed so that each node holds four (`WideTree`, the
+//! default) or eight (`WideTree8`) children's boxes, tested against a ray in one SIMD pass:
+//! fewer, slightly longer node visits than the binary tree's, and fewer stack entries.
 //!
-//! - [`node`]: the node layout and the 4-lane box test (identical, lane by lane, to the scalar
-//!   slab test).
-//! - `collapse`: binary tree to 4-wide tree.
-//! - `dispatch`: the one-ray loop's baseline and AVX2 copies, picked at run time.
-//! - `simd`: the box test with SSE intrinsics on x86-64 (its portable twin is in [`node`]), and
-//!   the stream split's AVX2 eight-ray box tests and list writes (twins in `stream`).
+//! - [`node`]: the 4-wide node layout and its 4-lane box test (identical, lane by lane, to the
+//!   scalar slab test).
+//! - [`node8`]: the 8-wide node layout and its 8-lane box test.
+//! - `kind`: [`NodeKind`], what the walks need of a node layout, so that one tree type, one
+//!   collapse, one one-ray loop and one side-by-side engine serve both widths.
+//! - `collapse`: binary tree to wide tree.
+//! - `dispatch`: the loops' baseline and AVX2 copies, picked at run time.
+//! - `simd`: the box tests with SSE (4 lanes) and AVX2 (8 lanes) on x86-64 (their portable
+//!   twins are in [`node`] and [`node8`]), and the stream split's AVX2 eight-ray box tests and
+//!   list writes (twins in `stream`).
 //! - `single`: the one-ray loop, children in the node's precomputed order for the ray's octant.
 //! - `stack`: the one-ray loop's pending children, pushed without branches.
-//! - `stream`: a stream of rays going down once, split into index lists per child.
+//! - `stream`: the 4-wide tree's stream of rays going down once, split into index lists per
+//!   child.
+//! - `interleaved`: several rays walked side by side, one loop turn each in turn.
 //!
 //! It implements [`Accel`] directly (its walk is not the binary one). Triangles are the binary
 //! tree's leaves, in the same order, tested with the same kernels, so answers are those of

@@ -56,7 +56,7 @@ pub(crate) fn trace_from<N: NodeKind, K: TriangleTest, V: Visitor>(
     }
 }
 
-/// One turn of the loop: tests `item` (a node's four boxes, or a leaf's triangles), then
+/// One turn of the loop: tests `item` (a node's boxes, or a leaf's triangles), then
 /// returns the next item: the nearest child entered, else the nearest pending child still in
 /// front of the best hit; `None` when the ray is done. The interleaved engine
 /// ([`super::interleaved`]) takes turns between several rays with it.
