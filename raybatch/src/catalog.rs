@@ -33,7 +33,7 @@ pub enum AccelKind {
     /// [`WideTree`]: the same tree collapsed to 4 children per node, SIMD box tests.
     Bvh4,
     /// [`WideTree8`]: the same tree collapsed to 8 children per node (AVX2 box tests where
-    /// the CPU has them), for single rays; batches walk its rays side by side.
+    /// the CPU has them), for single rays; batches walk its rays one at a time.
     Bvh8,
     /// [`ZeroByteTree`]: no memory beside the mesh, boxes recomputed, per-thread box cache.
     Zbt,
@@ -105,8 +105,8 @@ impl AccelKind {
     }
 
     /// Whether the structure follows [`BuildOptions::ordering`] (the binary trees' child-order
-    /// byte); the 4-wide tree orders children by distance at run time instead, so building it
-    /// with another ordering gives the same structure.
+    /// byte); the wide trees order each node's children per ray octant from their own boxes
+    /// instead, so building them with another ordering gives the same structure.
     pub fn uses_child_ordering(self) -> bool {
         match self {
             AccelKind::Aabb

@@ -18,6 +18,8 @@ struct OneRay<'a, N: NodeKind, K, V> {
     id: u32,
     stack: &'a mut Stack,
     visitor: &'a mut V,
+    /// Whether the 8-wide box test may use AVX2: false in the baseline copy.
+    avx2: bool,
     kernel: std::marker::PhantomData<K>,
 }
 
@@ -25,7 +27,8 @@ impl<N: NodeKind, K: TriangleTest, V: Visitor> Loop for OneRay<'_, N, K, V> {
     type Output = f32;
     #[inline(always)]
     fn run(self) -> f32 {
-        single::trace::<N, K, V>(self.tree, self.ray, self.id, self.stack, self.visitor)
+        let OneRay { tree, ray, id, .. } = self;
+        single::trace::<N, K, V>(tree, ray, id, self.stack, self.visitor, self.avx2)
     }
 }
 
@@ -45,6 +48,7 @@ pub(crate) fn trace<N: NodeKind, K: TriangleTest, V: Visitor>(
         id,
         stack,
         visitor,
+        avx2,
         kernel: std::marker::PhantomData,
     };
     avx2::run(one, avx2)
@@ -56,6 +60,8 @@ struct Each<'a, 's, N: NodeKind, K, V> {
     stream: &'a mut RayStream<'s>,
     stack: &'a mut Stack,
     visitor: &'a mut V,
+    /// Whether the 8-wide box test may use AVX2: false in the baseline copy.
+    avx2: bool,
     kernel: std::marker::PhantomData<K>,
 }
 
@@ -68,11 +74,13 @@ impl<N: NodeKind, K: TriangleTest, V: Visitor> Loop for Each<'_, '_, N, K, V> {
             stream,
             stack,
             visitor,
+            avx2,
             ..
         } = self;
         for i in 0..stream.len() {
             let ray = stream.ray(i);
-            let tmax = single::trace::<N, K, V>(tree, &ray, stream.id(i), stack, visitor);
+            let id = stream.id(i);
+            let tmax = single::trace::<N, K, V>(tree, &ray, id, stack, visitor, avx2);
             stream.set_tmax(i, tmax);
         }
     }
@@ -93,6 +101,7 @@ pub(crate) fn trace_each<N: NodeKind, K: TriangleTest, V: Visitor>(
         stream,
         stack,
         visitor,
+        avx2,
         kernel: std::marker::PhantomData,
     };
     avx2::run(task, avx2)
@@ -104,6 +113,8 @@ struct Interleaved<'a, 's, N: NodeKind, K, V> {
     stream: &'a mut RayStream<'s>,
     stacks: &'a mut [Stack; interleaved::LANES],
     visitor: &'a mut V,
+    /// Whether the 8-wide box test may use AVX2: false in the baseline copy.
+    avx2: bool,
     kernel: std::marker::PhantomData<K>,
 }
 
@@ -111,7 +122,8 @@ impl<N: NodeKind, K: TriangleTest, V: Visitor> Loop for Interleaved<'_, '_, N, K
     type Output = ();
     #[inline(always)]
     fn run(self) {
-        interleaved::trace_stream::<N, K, V>(self.tree, self.stream, self.stacks, self.visitor)
+        let Interleaved { tree, stream, .. } = self;
+        interleaved::trace_stream::<N, K, V>(tree, stream, self.stacks, self.visitor, self.avx2)
     }
 }
 
@@ -129,6 +141,7 @@ pub(crate) fn trace_interleaved<N: NodeKind, K: TriangleTest, V: Visitor>(
         stream,
         stacks,
         visitor,
+        avx2,
         kernel: std::marker::PhantomData,
     };
     avx2::run(task, avx2)

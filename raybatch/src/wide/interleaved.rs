@@ -48,6 +48,7 @@ pub(crate) fn trace_stream<N: NodeKind, K: TriangleTest, V: Visitor>(
     stream: &mut RayStream<'_>,
     stacks: &mut [Stack; LANES],
     visitor: &mut V,
+    avx2: bool,
 ) {
     if tree.is_empty() || stream.is_empty() {
         return;
@@ -56,7 +57,7 @@ pub(crate) fn trace_stream<N: NodeKind, K: TriangleTest, V: Visitor>(
     let ray = stream.ray(0);
     let free = Walker {
         active: false,
-        wide: WideRay::new(&ray),
+        wide: WideRay::new(&ray, avx2),
         ray,
         index: 0,
         id: 0,
@@ -69,7 +70,7 @@ pub(crate) fn trace_stream<N: NodeKind, K: TriangleTest, V: Visitor>(
     loop {
         let mut busy = false;
         for (w, stack) in walkers.iter_mut().zip(stacks.iter_mut()) {
-            if !w.active && !start(tree, stream, &mut next, w, stack) {
+            if !w.active && !start(tree, stream, (&mut next, avx2), w, stack) {
                 continue;
             }
             busy = true;
@@ -90,7 +91,7 @@ pub(crate) fn trace_stream<N: NodeKind, K: TriangleTest, V: Visitor>(
 fn start<N: NodeKind>(
     tree: &WideBvh<N>,
     stream: &RayStream<'_>,
-    next: &mut usize,
+    (next, avx2): (&mut usize, bool),
     w: &mut Walker,
     stack: &mut Stack,
 ) -> bool {
@@ -101,7 +102,7 @@ fn start<N: NodeKind>(
         if tree.root_bounds.hit_by(&ray, ray.tmax) {
             stack.reset();
             w.active = true;
-            w.wide = WideRay::new(&ray);
+            w.wide = WideRay::new(&ray, avx2);
             w.index = index;
             w.id = stream.id(index);
             w.tmax = ray.tmax;

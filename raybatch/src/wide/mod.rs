@@ -68,8 +68,8 @@ pub struct WideBvh<N: NodeKind> {
 /// The 4-wide tree, the crate's default structure.
 pub type WideTree = WideBvh<WideNode>;
 
-/// The 8-wide tree: about half the node visits of the 4-wide one per ray, for single rays;
-/// batches walk its rays side by side.
+/// The 8-wide tree: about a third fewer node visits than the 4-wide one per ray, for single
+/// rays; batches walk its rays one at a time (side by side on large trees and short streams).
 pub type WideTree8 = WideBvh<WideNode8>;
 
 impl<N: NodeKind> WideBvh<N> {
@@ -387,7 +387,7 @@ mod tests {
         answers_equal_the_binary_tree_for::<WideNode>();
     }
 
-    /// The same for the 8-wide tree (its batches walk side by side whatever the option says).
+    /// The same for the 8-wide tree (its batches: side by side, or one ray at a time).
     #[test]
     fn eight_wide_answers_equal_the_binary_tree() {
         answers_equal_the_binary_tree_for::<WideNode8>();

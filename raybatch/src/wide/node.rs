@@ -142,7 +142,7 @@ impl WideNode {
     }
 }
 
-/// Per-ray constants of the 4-lane box test, computed once per ray.
+/// Per-ray constants of the box tests (4 and 8 lanes), computed once per ray.
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct WideRay {
     pub(crate) origin: [Vec4; 3],
@@ -157,9 +157,12 @@ pub(crate) struct WideRay {
 }
 
 impl WideRay {
-    /// The constants of `ray`.
+    /// The constants of `ray`; with `avx2`, the token of the 8-lane box test where the CPU
+    /// has AVX2 (the loops' baseline copies pass false, so they run its portable twin).
     #[inline(always)]
-    pub(crate) fn new(ray: &PreparedRay) -> Self {
+    pub(crate) fn new(ray: &PreparedRay, avx2: bool) -> Self {
+        #[cfg(not(target_arch = "x86_64"))]
+        let _ = avx2;
         let (origin, inv_dir, tmin) = (ray.origin, ray.inv_dir, ray.tmin);
         let splat = |v: Vec3| [Vec4::splat(v.x), Vec4::splat(v.y), Vec4::splat(v.z)];
         Self {
@@ -170,7 +173,11 @@ impl WideRay {
                 | ((inv_dir.z < 0.0) as u32) << 2,
             tmin: Vec4::splat(tmin),
             #[cfg(target_arch = "x86_64")]
-            avx2: crate::x86::Avx2::detect(),
+            avx2: if avx2 {
+                crate::x86::Avx2::detect()
+            } else {
+                None
+            },
         }
     }
 
@@ -240,8 +247,6 @@ pub(crate) mod tests {
         assert_eq!(order(0), [0, 1, 2]);
     }
 
-    /// Every lane of both versions (SSE where built for x86-64, and the portable one) agrees
-    /// with the scalar slab test: same hit or miss, same entry distance.
     /// Round `round` of a box-test comparison: `slots` random boxes (flat and degenerate ones
     /// among them) and a ray against them (some starting on a box's plane, some with a zero
     /// direction component of either sign, finite and infinite ranges), with its range end;
@@ -278,6 +283,8 @@ pub(crate) mod tests {
         Some((boxes, ray, tmax))
     }
 
+    /// Every lane of both versions (SSE where built for x86-64, and the portable one) agrees
+    /// with the scalar slab test: same hit or miss, same entry distance.
     #[test]
     fn lanes_match_the_scalar_box_test() {
         let mut rng = TestRng::new(11);
@@ -290,7 +297,7 @@ pub(crate) mod tests {
             for (slot, bounds) in boxes.iter().enumerate() {
                 node.set(slot, bounds, slot as u32);
             }
-            let wide_ray = WideRay::new(&ray);
+            let wide_ray = WideRay::new(&ray, true);
             let (mask, entries) = wide_ray.hits(&node, tmax);
             let planes = node.planes(wide_ray.octant);
             let (portable_mask, portable_entries) = wide_ray.slabs_portable(&planes, tmax);

@@ -43,7 +43,9 @@ pub struct WideNode8 {
     order: [u32; 8],
 }
 
-const _: () = assert!(size_of::<WideNode8>() == 256);
+// 256 bytes, and each row of `bounds` 32-byte aligned (the AVX2 test's aligned loads).
+const _: () =
+    assert!(size_of::<WideNode8>() == 256 && std::mem::offset_of!(WideNode8, bounds) % 32 == 0);
 
 impl WideNode8 {
     /// True if slot `slot` holds a box (an unused slot's is empty).
@@ -209,7 +211,7 @@ mod tests {
             for (slot, bounds) in boxes.iter().enumerate() {
                 node.set(slot, bounds, slot as u32);
             }
-            let wide_ray = WideRay::new(&ray);
+            let wide_ray = WideRay::new(&ray, true);
             let (mask, entries) = node.hits(&wide_ray, tmax);
             let (halves_mask, halves_entries) = node.hits_by_halves(&wide_ray, tmax);
             assert_eq!(mask, halves_mask, "{boxes:?}, {ray:?}");

@@ -1,4 +1,4 @@
-//! The 4-wide tree's hand-written SIMD (x86-64), each with a portable twin its module's tests
+//! The wide trees' hand-written SIMD (x86-64), each with a portable twin its module's tests
 //! compare it with:
 //!
 //! - [`slabs`]: one ray against a node's four boxes with SSE, twin of

@@ -19,7 +19,8 @@ use crate::geom::{PreparedRay, TriangleTest};
 use crate::hit::Visitor;
 use crate::traverse::single::test_triangles;
 
-/// Traces `ray` (number `id`) through the whole tree; returns the final range end.
+/// Traces `ray` (number `id`) through the whole tree; returns the final range end. `avx2`:
+/// whether the 8-wide box test may use AVX2 (false in the loops' baseline copies).
 #[inline(always)]
 pub(crate) fn trace<N: NodeKind, K: TriangleTest, V: Visitor>(
     tree: &WideBvh<N>,
@@ -27,12 +28,15 @@ pub(crate) fn trace<N: NodeKind, K: TriangleTest, V: Visitor>(
     id: u32,
     stack: &mut Stack,
     visitor: &mut V,
+    avx2: bool,
 ) -> f32 {
     let mut tmax = ray.tmax;
     if tree.is_empty() || !tree.root_bounds.hit_by(ray, tmax) {
         return tmax;
     }
-    trace_from::<N, K, V>(tree, ray, id, tree.root, &mut tmax, stack, visitor);
+    let wide_ray = WideRay::new(ray, avx2);
+    let start = tree.root;
+    trace_from::<N, K, V>(tree, (ray, &wide_ray, id), start, &mut tmax, stack, visitor);
     tmax
 }
 
@@ -41,17 +45,15 @@ pub(crate) fn trace<N: NodeKind, K: TriangleTest, V: Visitor>(
 #[inline(always)]
 pub(crate) fn trace_from<N: NodeKind, K: TriangleTest, V: Visitor>(
     tree: &WideBvh<N>,
-    ray: &PreparedRay,
-    id: u32,
+    (ray, wide_ray, id): (&PreparedRay, &WideRay, u32),
     start: u32,
     tmax: &mut f32,
     stack: &mut Stack,
     visitor: &mut V,
 ) {
-    let wide_ray = WideRay::new(ray);
     stack.reset();
     let mut item = start;
-    while let Some(next) = step::<N, K, V>(tree, (ray, &wide_ray, id), item, tmax, stack, visitor) {
+    while let Some(next) = step::<N, K, V>(tree, (ray, wide_ray, id), item, tmax, stack, visitor) {
         item = next;
     }
 }

@@ -70,8 +70,8 @@ impl Stack {
 
     /// Pushes the children hit (bit `k` of `mask` for slot `k`, entering at `entries[k]`) in
     /// the node's order for the ray's octant (`order`: the slots nearest first, `log2(W)` bits
-    /// each, see [`super::node::WideNode::order_children`]), farthest first, so the nearest is
-    /// on top.
+    /// each, see [`super::node::WideNode::order_children`] and the order words of
+    /// [`super::node8`]), farthest first, so the nearest is on top.
     #[inline(always)]
     pub(crate) fn push_hits<const W: usize>(
         &mut self,

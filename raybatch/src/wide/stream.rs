@@ -270,8 +270,15 @@ impl Walk<'_> {
                 let ray = &mut self.rays[i];
                 let id = self.batch_ids[i];
                 let mut tmax = ray.tmax;
+                // The 4-wide box test has no use for the AVX2 token.
+                let wide_ray = WideRay::new(ray, false);
                 super::single::trace_from::<WideNode, K, V>(
-                    self.tree, ray, id, list.word, &mut tmax, self.stack, visitor,
+                    self.tree,
+                    (ray, &wide_ray, id),
+                    list.word,
+                    &mut tmax,
+                    self.stack,
+                    visitor,
                 );
                 ray.tmax = tmax;
             }
@@ -475,7 +482,7 @@ fn masks_one_by_one<const ONE_OCTANT: bool>(
     let mut packed = 0u128;
     for (out, &i) in masks.iter_mut().zip(ids) {
         let ray = &rays[i as usize];
-        let wide = WideRay::new(ray);
+        let wide = WideRay::new(ray, false);
         let planes = if ONE_OCTANT {
             debug_assert_eq!(wide.octant, octant);
             *shared
