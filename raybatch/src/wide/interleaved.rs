@@ -85,8 +85,9 @@ pub(crate) fn trace_stream<N: NodeKind, K: TriangleTest, V: Visitor>(
     }
 }
 
-/// Starts `w` on the next ray of the stream (from `*next` on) that enters the root's box;
-/// false when no ray is left. Rays that miss the root keep their range end.
+/// Starts `w` on the next ray of the stream (from `*next` on) that enters the root's box
+/// (all of them in a culled stream, [`RayStream::in_cull_bounds`]); false when no ray is
+/// left. Rays that miss the root keep their range end.
 #[inline(never)]
 fn start<N: NodeKind>(
     tree: &WideBvh<N>,
@@ -99,7 +100,8 @@ fn start<N: NodeKind>(
         let index = *next;
         *next += 1;
         let ray = stream.ray(index);
-        if tree.root_bounds.hit_by(&ray, ray.tmax) {
+        // A culled stream's rays all touch the root box: the preparation tested it.
+        if stream.in_cull_bounds() || tree.root_bounds.hit_by(&ray, ray.tmax) {
             stack.reset();
             w.active = true;
             w.wide = WideRay::new(&ray, avx2);
