@@ -3,6 +3,7 @@
 //! With AVX2 (and the VEX encoding it brings) the box test and the triangle kernels need fewer
 //! register copies; `wide::tests` compares the two copies.
 
+use super::node::BoxSimd;
 use super::stack::Stack;
 use super::{NodeKind, WideBvh, WideScratch, WideTree};
 use super::{interleaved, single, stream};
@@ -28,7 +29,8 @@ impl<N: NodeKind, K: TriangleTest, V: Visitor> Loop for OneRay<'_, N, K, V> {
     #[inline(always)]
     fn run(self) -> f32 {
         let OneRay { tree, ray, id, .. } = self;
-        single::trace::<N, K, V>(tree, ray, id, self.stack, self.visitor, self.avx2)
+        let simd = BoxSimd::detect(self.avx2);
+        single::trace::<N, K, V>(tree, ray, id, self.stack, self.visitor, simd)
     }
 }
 
@@ -54,93 +56,75 @@ pub(crate) fn trace<N: NodeKind, K: TriangleTest, V: Visitor>(
     avx2::run(one, avx2)
 }
 
-/// Every ray of a stream through [`single::trace`], one at a time, as a [`Loop`].
-struct Each<'a, 's, N: NodeKind, K, V> {
+/// How a stream's rays go through the one-ray loop.
+#[derive(Clone, Copy, Debug)]
+pub(crate) enum Walk {
+    /// One ray after the other ([`single::trace`]).
+    OneAtATime,
+    /// Several at once, taking turns ([`interleaved::trace_stream`]).
+    SideBySide,
+}
+
+/// Every ray of a stream through the one-ray loop, walked as `walk` says, as a [`Loop`].
+struct Rays<'a, 's, N: NodeKind, K, V> {
     tree: &'a WideBvh<N>,
     stream: &'a mut RayStream<'s>,
-    stack: &'a mut Stack,
+    scratch: &'a mut WideScratch,
     visitor: &'a mut V,
+    walk: Walk,
     /// Whether the 8-wide box test may use AVX2: false in the baseline copy.
     avx2: bool,
     kernel: std::marker::PhantomData<K>,
 }
 
-impl<N: NodeKind, K: TriangleTest, V: Visitor> Loop for Each<'_, '_, N, K, V> {
+impl<N: NodeKind, K: TriangleTest, V: Visitor> Loop for Rays<'_, '_, N, K, V> {
     type Output = ();
     #[inline(always)]
     fn run(self) {
-        let Each {
+        let Rays {
             tree,
             stream,
-            stack,
+            scratch,
             visitor,
-            avx2,
             ..
         } = self;
-        for i in 0..stream.len() {
-            let ray = stream.ray(i);
-            let id = stream.id(i);
-            let tmax = single::trace::<N, K, V>(tree, &ray, id, stack, visitor, avx2);
-            stream.set_tmax(i, tmax);
+        let simd = BoxSimd::detect(self.avx2);
+        match self.walk {
+            Walk::OneAtATime => {
+                for i in 0..stream.len() {
+                    let (ray, id) = (stream.ray(i), stream.id(i));
+                    let stack = &mut scratch.stack;
+                    let tmax = single::trace::<N, K, V>(tree, &ray, id, stack, visitor, simd);
+                    stream.set_tmax(i, tmax);
+                }
+            }
+            Walk::SideBySide => interleaved::trace_stream::<N, K, V>(
+                tree,
+                stream,
+                &mut scratch.stacks,
+                visitor,
+                simd,
+            ),
         }
     }
 }
 
-/// Every ray of `stream` through [`single::trace`], one at a time, in the AVX2 copy if `avx2`
-/// and the CPU has it.
+/// Every ray of `stream` through the one-ray loop, walked as `walk` says, in the AVX2 copy if
+/// `avx2` and the CPU has it.
 #[inline]
-pub(crate) fn trace_each<N: NodeKind, K: TriangleTest, V: Visitor>(
-    avx2: bool,
+pub(crate) fn trace_rays<N: NodeKind, K: TriangleTest, V: Visitor>(
+    (avx2, walk): (bool, Walk),
     tree: &WideBvh<N>,
     stream: &mut RayStream<'_>,
-    stack: &mut Stack,
+    scratch: &mut WideScratch,
     visitor: &mut V,
 ) {
-    let task = Each::<N, K, V> {
+    let task = Rays::<N, K, V> {
         tree,
         stream,
-        stack,
+        scratch,
         visitor,
-        avx2,
-        kernel: std::marker::PhantomData,
-    };
-    avx2::run(task, avx2)
-}
-
-/// A stream through [`interleaved::trace_stream`], as a [`Loop`].
-struct Interleaved<'a, 's, N: NodeKind, K, V> {
-    tree: &'a WideBvh<N>,
-    stream: &'a mut RayStream<'s>,
-    stacks: &'a mut [Stack; interleaved::LANES],
-    visitor: &'a mut V,
-    /// Whether the 8-wide box test may use AVX2: false in the baseline copy.
-    avx2: bool,
-    kernel: std::marker::PhantomData<K>,
-}
-
-impl<N: NodeKind, K: TriangleTest, V: Visitor> Loop for Interleaved<'_, '_, N, K, V> {
-    type Output = ();
-    #[inline(always)]
-    fn run(self) {
-        let Interleaved { tree, stream, .. } = self;
-        interleaved::trace_stream::<N, K, V>(tree, stream, self.stacks, self.visitor, self.avx2)
-    }
-}
-
-/// [`interleaved::trace_stream`], in the AVX2 copy if `avx2` and the CPU has it.
-#[inline]
-pub(crate) fn trace_interleaved<N: NodeKind, K: TriangleTest, V: Visitor>(
-    avx2: bool,
-    tree: &WideBvh<N>,
-    stream: &mut RayStream<'_>,
-    stacks: &mut [Stack; interleaved::LANES],
-    visitor: &mut V,
-) {
-    let task = Interleaved::<N, K, V> {
-        tree,
-        stream,
-        stacks,
-        visitor,
+        walk,
         avx2,
         kernel: std::marker::PhantomData,
     };

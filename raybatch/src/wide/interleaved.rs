@@ -13,7 +13,7 @@
 //! nodes in the same order, with the same kernels and the same range ends, as it would alone:
 //! answers are those of the one-ray loop, bit for bit. Prefetching never changes a value.
 
-use super::node::WideRay;
+use super::node::{BoxSimd, WideRay};
 use super::single::step;
 use super::stack::Stack;
 use super::{LEAF_READY, NodeKind, WideBvh};
@@ -48,7 +48,7 @@ pub(crate) fn trace_stream<N: NodeKind, K: TriangleTest, V: Visitor>(
     stream: &mut RayStream<'_>,
     stacks: &mut [Stack; LANES],
     visitor: &mut V,
-    avx2: bool,
+    simd: BoxSimd,
 ) {
     if tree.is_empty() || stream.is_empty() {
         return;
@@ -57,7 +57,7 @@ pub(crate) fn trace_stream<N: NodeKind, K: TriangleTest, V: Visitor>(
     let ray = stream.ray(0);
     let free = Walker {
         active: false,
-        wide: WideRay::new(&ray, avx2),
+        wide: WideRay::new(&ray, simd),
         ray,
         index: 0,
         id: 0,
@@ -70,7 +70,7 @@ pub(crate) fn trace_stream<N: NodeKind, K: TriangleTest, V: Visitor>(
     loop {
         let mut busy = false;
         for (w, stack) in walkers.iter_mut().zip(stacks.iter_mut()) {
-            if !w.active && !start(tree, stream, (&mut next, avx2), w, stack) {
+            if !w.active && !start(tree, stream, (&mut next, simd), w, stack) {
                 continue;
             }
             busy = true;
@@ -92,7 +92,7 @@ pub(crate) fn trace_stream<N: NodeKind, K: TriangleTest, V: Visitor>(
 fn start<N: NodeKind>(
     tree: &WideBvh<N>,
     stream: &RayStream<'_>,
-    (next, avx2): (&mut usize, bool),
+    (next, simd): (&mut usize, BoxSimd),
     w: &mut Walker,
     stack: &mut Stack,
 ) -> bool {
@@ -104,7 +104,7 @@ fn start<N: NodeKind>(
         if stream.in_cull_bounds() || tree.root_bounds.hit_by(&ray, ray.tmax) {
             stack.reset();
             w.active = true;
-            w.wide = WideRay::new(&ray, avx2);
+            w.wide = WideRay::new(&ray, simd);
             w.index = index;
             w.id = stream.id(index);
             w.tmax = ray.tmax;

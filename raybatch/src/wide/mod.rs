@@ -186,8 +186,8 @@ impl<N: NodeKind> Accel for WideBvh<N> {
         visitor: &mut V,
     ) {
         if self.walks_side_by_side(stream) {
-            let stacks = &mut scratch.stacks;
-            dispatch::trace_interleaved::<N, K, V>(true, self, stream, stacks, visitor)
+            let walk = (true, dispatch::Walk::SideBySide);
+            dispatch::trace_rays::<N, K, V>(walk, self, stream, scratch, visitor)
         } else {
             N::trace_own_stream::<K, V>(self, stream, scratch, visitor)
         }

@@ -25,9 +25,15 @@
 
 use glam::{Vec3, Vec4};
 
+use super::kind::layout::Layout;
+use super::stack::Stack;
+use super::{WideBvh, WideScratch, dispatch};
+use crate::accel::RayStream;
 use crate::bvh::ordering::octant_diagonal;
 use crate::geom::aabb::EXIT_SCALE;
-use crate::geom::{Aabb, PreparedRay};
+use crate::geom::{Aabb, PreparedRay, TriangleTest};
+use crate::hit::Visitor;
+use crate::prefetch::prefetch;
 
 /// Children per node.
 pub const WIDTH: usize = 4;
@@ -142,6 +148,42 @@ impl WideNode {
     }
 }
 
+/// What the 8-lane box test may use: the AVX2 token where the CPU has AVX2 and the loop's
+/// copy may use it (x86-64), nothing elsewhere. Found once per loop, not per ray.
+#[derive(Clone, Copy, Debug, Default)]
+pub(crate) struct BoxSimd {
+    #[cfg(target_arch = "x86_64")]
+    avx2: Option<crate::x86::Avx2>,
+}
+
+impl BoxSimd {
+    /// The portable box test: the loops' baseline copies, and the 4-wide tree's loops (whose
+    /// box test needs no token).
+    pub(crate) const PORTABLE: BoxSimd = BoxSimd {
+        #[cfg(target_arch = "x86_64")]
+        avx2: None,
+    };
+
+    /// AVX2 if `wanted` and the CPU has it, else [`BoxSimd::PORTABLE`].
+    pub(crate) fn detect(wanted: bool) -> Self {
+        #[cfg(target_arch = "x86_64")]
+        if wanted {
+            return BoxSimd {
+                avx2: crate::x86::Avx2::detect(),
+            };
+        }
+        let _ = wanted;
+        Self::PORTABLE
+    }
+
+    /// The AVX2 token, if the 8-lane test may use it.
+    #[cfg(target_arch = "x86_64")]
+    #[inline(always)]
+    pub(crate) fn avx2(self) -> Option<crate::x86::Avx2> {
+        self.avx2
+    }
+}
+
 /// Per-ray constants of the box tests (4 and 8 lanes), computed once per ray.
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct WideRay {
@@ -151,18 +193,16 @@ pub(crate) struct WideRay {
     /// which are the direction's): which planes of a node are near.
     pub(crate) octant: u32,
     pub(crate) tmin: Vec4,
-    /// Where the CPU has AVX2: the 8-wide node's box test uses it.
-    #[cfg(target_arch = "x86_64")]
-    pub(crate) avx2: Option<crate::x86::Avx2>,
+    /// What the 8-wide node's box test may use (read on x86-64 only: elsewhere there is
+    /// nothing to choose).
+    #[cfg_attr(not(target_arch = "x86_64"), allow(dead_code))]
+    pub(crate) simd: BoxSimd,
 }
 
 impl WideRay {
-    /// The constants of `ray`; with `avx2`, the token of the 8-lane box test where the CPU
-    /// has AVX2 (the loops' baseline copies pass false, so they run its portable twin).
+    /// The constants of `ray`, for box tests that may use `simd`.
     #[inline(always)]
-    pub(crate) fn new(ray: &PreparedRay, avx2: bool) -> Self {
-        #[cfg(not(target_arch = "x86_64"))]
-        let _ = avx2;
+    pub(crate) fn new(ray: &PreparedRay, simd: BoxSimd) -> Self {
         let (origin, inv_dir, tmin) = (ray.origin, ray.inv_dir, ray.tmin);
         let splat = |v: Vec3| [Vec4::splat(v.x), Vec4::splat(v.y), Vec4::splat(v.z)];
         Self {
@@ -172,12 +212,7 @@ impl WideRay {
                 | ((inv_dir.y < 0.0) as u32) << 1
                 | ((inv_dir.z < 0.0) as u32) << 2,
             tmin: Vec4::splat(tmin),
-            #[cfg(target_arch = "x86_64")]
-            avx2: if avx2 {
-                crate::x86::Avx2::detect()
-            } else {
-                None
-            },
+            simd,
         }
     }
 
@@ -220,6 +255,48 @@ impl WideRay {
             far = Vec4::select(exit.cmplt(far), exit, far);
         }
         (near.cmple(far).bitmask(), near)
+    }
+}
+
+#[allow(private_interfaces)]
+impl Layout for WideNode {
+    const WIDTH: usize = WIDTH;
+    const NAME: &'static str = "bvh4";
+    const FORMAT: &'static str = "4-wide nodes (128 B)";
+
+    fn empty() -> Self {
+        WideNode::empty()
+    }
+
+    fn set(&mut self, slot: usize, bounds: &Aabb, word: u32) {
+        WideNode::set(self, slot, bounds, word);
+    }
+
+    fn order_children(&mut self) {
+        WideNode::order_children(self);
+    }
+
+    #[inline(always)]
+    fn push_hits(&self, ray: &WideRay, tmax: f32, stack: &mut Stack) {
+        let (mask, entries) = ray.hits(self, tmax);
+        let order = u32::from(self.order(ray.octant));
+        stack.push_hits::<4>(mask, &entries.to_array(), &self.child, order);
+    }
+
+    #[inline(always)]
+    fn prefetch(&self) {
+        prefetch(self);
+        prefetch(&self.bounds[4]);
+    }
+
+    /// Nodes shared by the rays that reach them.
+    fn trace_own_stream<K: TriangleTest, V: Visitor>(
+        tree: &WideBvh<Self>,
+        stream: &mut RayStream<'_>,
+        scratch: &mut WideScratch,
+        visitor: &mut V,
+    ) {
+        dispatch::trace_shared::<K, V>(true, tree, stream, scratch, visitor)
     }
 }
 
@@ -297,7 +374,7 @@ pub(crate) mod tests {
             for (slot, bounds) in boxes.iter().enumerate() {
                 node.set(slot, bounds, slot as u32);
             }
-            let wide_ray = WideRay::new(&ray, true);
+            let wide_ray = WideRay::new(&ray, BoxSimd::detect(true));
             let (mask, entries) = wide_ray.hits(&node, tmax);
             let planes = node.planes(wide_ray.octant);
             let (portable_mask, portable_entries) = wide_ray.slabs_portable(&planes, tmax);

@@ -73,7 +73,7 @@ impl WideNode8 {
     #[inline(always)]
     pub(crate) fn hits(&self, ray: &WideRay, tmax: f32) -> (u32, [f32; WIDTH]) {
         #[cfg(target_arch = "x86_64")]
-        if let Some(avx2) = ray.avx2 {
+        if let Some(avx2) = ray.simd.avx2() {
             return super::simd::slabs8(avx2, ray, self, tmax);
         }
         self.hits_by_halves(ray, tmax)
@@ -167,7 +167,8 @@ impl Layout for WideNode8 {
         scratch: &mut WideScratch,
         visitor: &mut V,
     ) {
-        dispatch::trace_each::<Self, K, V>(true, tree, stream, &mut scratch.stack, visitor)
+        let walk = (true, dispatch::Walk::OneAtATime);
+        dispatch::trace_rays::<Self, K, V>(walk, tree, stream, scratch, visitor)
     }
 }
 
@@ -175,6 +176,7 @@ impl Layout for WideNode8 {
 mod tests {
     use super::*;
     use crate::test_support::TestRng;
+    use crate::wide::node::BoxSimd;
     use crate::wide::node::tests::box_test_case;
 
     /// The order words list the used slots nearest first along each octant's diagonal, then
@@ -211,7 +213,7 @@ mod tests {
             for (slot, bounds) in boxes.iter().enumerate() {
                 node.set(slot, bounds, slot as u32);
             }
-            let wide_ray = WideRay::new(&ray, true);
+            let wide_ray = WideRay::new(&ray, BoxSimd::detect(true));
             let (mask, entries) = node.hits(&wide_ray, tmax);
             let (halves_mask, halves_entries) = node.hits_by_halves(&wide_ray, tmax);
             assert_eq!(mask, halves_mask, "{boxes:?}, {ray:?}");

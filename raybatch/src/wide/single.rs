@@ -11,7 +11,7 @@
 //! Entry distances are kept on the stack: a pop whose entry lies behind the best hit is dropped
 //! without reading anything (`<=`, for the tie rule of [`crate::hit`]).
 
-use super::node::WideRay;
+use super::node::{BoxSimd, WideRay};
 use super::stack::Stack;
 use super::{NodeKind, WideBvh};
 use crate::bvh::nodes::leaf_word;
@@ -19,8 +19,8 @@ use crate::geom::{PreparedRay, TriangleTest};
 use crate::hit::Visitor;
 use crate::traverse::single::test_triangles;
 
-/// Traces `ray` (number `id`) through the whole tree; returns the final range end. `avx2`:
-/// whether the 8-wide box test may use AVX2 (false in the loops' baseline copies).
+/// Traces `ray` (number `id`) through the whole tree, with box tests that may use `simd`;
+/// returns the final range end.
 #[inline(always)]
 pub(crate) fn trace<N: NodeKind, K: TriangleTest, V: Visitor>(
     tree: &WideBvh<N>,
@@ -28,13 +28,13 @@ pub(crate) fn trace<N: NodeKind, K: TriangleTest, V: Visitor>(
     id: u32,
     stack: &mut Stack,
     visitor: &mut V,
-    avx2: bool,
+    simd: BoxSimd,
 ) -> f32 {
     let mut tmax = ray.tmax;
     if tree.is_empty() || !tree.root_bounds.hit_by(ray, tmax) {
         return tmax;
     }
-    let wide_ray = WideRay::new(ray, avx2);
+    let wide_ray = WideRay::new(ray, simd);
     let start = tree.root;
     trace_from::<N, K, V>(tree, (ray, &wide_ray, id), start, &mut tmax, stack, visitor);
     tmax

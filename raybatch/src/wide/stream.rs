@@ -20,7 +20,7 @@
 //!
 //! [`BatchOptions::single_ray_below`]: crate::batch::BatchOptions::single_ray_below
 
-use super::node::{Planes, WIDTH, WideNode, WideRay};
+use super::node::{BoxSimd, Planes, WIDTH, WideNode, WideRay};
 use super::stack::Stack;
 use super::{WideScratch, WideTree};
 use crate::accel::RayStream;
@@ -270,8 +270,7 @@ impl Walk<'_> {
                 let ray = &mut self.rays[i];
                 let id = self.batch_ids[i];
                 let mut tmax = ray.tmax;
-                // The 4-wide box test has no use for the AVX2 token.
-                let wide_ray = WideRay::new(ray, false);
+                let wide_ray = WideRay::new(ray, BoxSimd::PORTABLE);
                 super::single::trace_from::<WideNode, K, V>(
                     self.tree,
                     (ray, &wide_ray, id),
@@ -482,7 +481,7 @@ fn masks_one_by_one<const ONE_OCTANT: bool>(
     let mut packed = 0u128;
     for (out, &i) in masks.iter_mut().zip(ids) {
         let ray = &rays[i as usize];
-        let wide = WideRay::new(ray, false);
+        let wide = WideRay::new(ray, BoxSimd::PORTABLE);
         let planes = if ONE_OCTANT {
             debug_assert_eq!(wide.octant, octant);
             *shared
