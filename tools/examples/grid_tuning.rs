@@ -6,6 +6,11 @@
 //!
 //! `cargo run --release -p raybatch-tools --example grid_tuning [-- bunny|terrain|city|sparse [RAYS]]`
 //!
+//! `... grid_tuning -- race SCENE RAYS` times the AABB tree and the grid at its defaults on
+//! the short and vertical rays (the terrain targets of issue 11), per ray and batched, in
+//! alternation within one process (best of 7 rounds each): on a noisy machine the ratio of
+//! two runs made side by side holds where separate runs drift.
+//!
 //! `... grid_tuning -- profile SCENE SET aabb|grid|grid-cube|grid:NXxNYxNZ|kd RAYS`
 //! (`grid-cube`: the grid with cube cells, `GridOptions::shaped_cells` off) builds one structure and traces one
 //! ray set (`incoherent`, `camera`, `short`, `vertical`) through `trace_set`, a function of its
@@ -18,8 +23,8 @@ use std::time::Instant;
 use raybatch::glam::Vec3;
 use raybatch::grid::HASH_CELLS_PER_TRIANGLE;
 use raybatch::{
-    AabbTree, Accel, BuildOptions, Footprint, GridOptions, Hit, KdTree, Mesh, Ray, RayQueries,
-    SpatialHash, UniformGrid,
+    AabbTree, Accel, BatchQueries, BuildOptions, Footprint, GridOptions, Hit, KdTree, Mesh, Ray,
+    RayQueries, SpatialHash, UniformGrid,
 };
 use raybatch_tools::scenes::{self, RaySet, SplitMix64};
 
@@ -32,6 +37,13 @@ fn main() {
             panic!("profile SCENE SET aabb|grid|grid-cube|grid:NXxNYxNZ|kd RAYS");
         };
         return profile(scene, set, structure, count.parse().expect("a ray count"));
+    }
+    if first.as_deref() == Some("race") {
+        let scene = args.next().unwrap_or_else(|| "terrain".into());
+        let count = args
+            .next()
+            .map_or(200_000, |n| n.parse().expect("a ray count"));
+        return race(&scene, count);
     }
     let scene = scene(first.as_deref().unwrap_or("terrain"));
     let count: usize = args
@@ -204,6 +216,73 @@ fn profile(scene: &str, set: &str, structure: &str, count: usize) {
         other => panic!("unknown structure {other}: aabb, grid or kd"),
     };
     println!("{hits} of {count} rays hit");
+}
+
+/// The `race` mode (see the module docs).
+fn race(scene: &str, count: usize) {
+    let scene = self::scene(scene);
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(1)
+        .build()
+        .unwrap();
+    let aabb: AabbTree = AabbTree::build(scene.mesh.clone(), &BuildOptions::default()).unwrap();
+    let grid = UniformGrid::build(scene.mesh.clone(), &GridOptions::default()).unwrap();
+    println!(
+        "{} ({} triangles), grid {:?} at {:.1} B/tri, aabb {:.1} B/tri; {count} rays, closest \
+         hit, one thread, ms (best of {ROUNDS} alternated rounds)\n",
+        scene.name,
+        scene.mesh.triangle_count(),
+        grid.resolution(),
+        grid.bytes_per_triangle(),
+        aabb.bytes_per_triangle()
+    );
+    println!(
+        "| rays | aabb per ray | grid per ray | ratio | aabb batched | grid batched | ratio |"
+    );
+    println!("|---|---:|---:|---:|---:|---:|---:|");
+    for set in ["short", "vertical"] {
+        let rays = ray_set(&scene, set, count);
+        let mut best = [f64::INFINITY; 4];
+        let mut answers: Vec<Vec<Option<Hit>>> = vec![vec![None; rays.len()]; 4];
+        pool.install(|| {
+            for _ in 0..ROUNDS {
+                for (k, out) in answers.iter_mut().enumerate() {
+                    let start = Instant::now();
+                    match k {
+                        0 => per_ray(&aabb, &rays, out),
+                        1 => per_ray(&grid, &rays, out),
+                        2 => aabb.cast_rays(&rays, out).unwrap(),
+                        _ => grid.cast_rays(&rays, out).unwrap(),
+                    }
+                    best[k] = best[k].min(ms_since(start));
+                }
+            }
+        });
+        let wrapped: Vec<_> = answers.into_iter().map(|a| (a, 0.0)).collect();
+        check(&wrapped[..1], &wrapped[1..2]);
+        check(&wrapped[..1], &wrapped[2..3]);
+        check(&wrapped[..1], &wrapped[3..]);
+        println!(
+            "| {set} | {:.1} | {:.1} | {:.2} | {:.1} | {:.1} | {:.2} |",
+            best[0],
+            best[1],
+            best[0] / best[1],
+            best[2],
+            best[3],
+            best[2] / best[3]
+        );
+    }
+    println!("\n(ratio: the grid's speed over the tree's; above 1 the grid is faster)");
+}
+
+/// Rounds of the `race` mode.
+const ROUNDS: usize = 7;
+
+/// Closest hits of `rays` one at a time into `out`.
+fn per_ray<A: Accel>(accel: &A, rays: &[Ray], out: &mut [Option<Hit>]) {
+    for (ray, hit) in rays.iter().zip(out) {
+        *hit = accel.cast_ray(ray);
+    }
 }
 
 /// Closest hits of `rays`, counted: the only code a profile of the `profile` mode collects.

@@ -16,12 +16,15 @@ use crate::geom::{Aabb, PreparedRay, TriangleTest};
 use crate::hit::Visitor;
 use crate::mesh::Mesh;
 
-use super::cells::{Block, blocks, for_each_cell, grid_planes, reference};
+use super::cells::{
+    Block, TriangleBox, blocks, for_each_cell, grid_planes, reference, triangle_boxes,
+};
+use super::cull::{self, CULL_WORDS, cull_words};
 use super::scratch::GridScratch;
 use super::sizing::{GridOptions, cap, cell_shape, resolution};
 use super::table::CellTable;
 use super::uniform::{live_triangles, test_cell};
-use super::walk::{GridPlanes, bounds, walk};
+use super::walk::{GridPlanes, bounds, linear_index, walk};
 use crate::batch::origin_order;
 
 /// A triangle is stored at most this many times on average (else the cells are coarsened).
@@ -41,7 +44,8 @@ pub struct SpatialHash {
     planes: GridPlanes,
     dims: [u32; 3],
     table: CellTable,
-    refs: Vec<u32>,
+    /// Each stored cell's cull box, then its references (`super::cull`).
+    words: Vec<u32>,
     coarse: Coarse,
 }
 
@@ -124,25 +128,28 @@ impl SpatialHash {
                 planes: grid_planes(&Aabb::new(bounds.min, bounds.min), [1; 3]),
                 dims: [1; 3],
                 table: CellTable::default(),
-                refs: Vec::new(),
+                words: Vec::new(),
                 coarse: Coarse::default(),
             });
         }
         let shape = cell_shape(&mesh, &live, options);
         let mut dims = resolution(&bounds, live.len(), shape, options).map(|d| d.min(MAX_SLABS));
-        let max_refs = (REFERENCES_PER_TRIANGLE * live.len() as u64).min(u64::from(u32::MAX));
+        // (Each cell adds at most CULL_WORDS words to its references: all fit in `u32` offsets.)
+        let max_words = u64::from(u32::MAX) / (CULL_WORDS as u64 + 1);
+        let max_refs = (REFERENCES_PER_TRIANGLE * live.len() as u64).min(max_words);
+        let boxes = triangle_boxes(&mesh, &live);
         loop {
             let planes = grid_planes(&bounds, dims);
-            let blocks = blocks(&mesh, &live, &planes);
+            let blocks = blocks(&boxes, &planes);
             let needed: u64 = blocks.iter().map(super::cells::block_cells).sum();
             if needed <= max_refs || dims == [1; 3] {
-                let (table, refs, cells) = fill(dims, &live, &blocks);
+                let (table, words, cells) = fill(&planes, &live, &boxes, &blocks);
                 return Ok(Self {
                     mesh,
                     planes,
                     dims,
                     table,
-                    refs,
+                    words,
                     coarse: Coarse::new(dims, &cells),
                 });
             }
@@ -168,42 +175,48 @@ impl SpatialHash {
 
     /// Triangle references stored in the cells.
     pub fn reference_count(&self) -> usize {
-        self.refs.len()
-    }
-
-    /// The linear index of cell `[x, y, z]`.
-    #[inline(always)]
-    fn key(&self, cell: [u32; 3]) -> u64 {
-        let [x, y, z] = cell.map(u64::from);
-        let [nx, ny, _] = self.dims.map(u64::from);
-        x + nx * (y + ny * z)
+        self.words.len() - CULL_WORDS * self.table.len()
     }
 }
 
-/// The table, the reference array and the non-empty cells: every (cell, reference) pair
-/// sorted by cell, then id, so that each non-empty cell's references are one run.
-fn fill(dims: [u32; 3], live: &[u32], blocks: &[Block]) -> (CellTable, Vec<u32>, Vec<[u32; 3]>) {
-    let [nx, ny, _] = dims.map(u64::from);
-    let mut pairs: Vec<(u64, u32)> = Vec::new();
-    for (&id, block) in live.iter().zip(blocks) {
+/// The table, the word array (each non-empty cell's cull box, then its references) and the
+/// non-empty cells: every (cell, reference) pair sorted by cell, then reference, so that each
+/// non-empty cell's references are one run.
+fn fill(
+    planes: &GridPlanes,
+    live: &[u32],
+    boxes: &[TriangleBox],
+    blocks: &[Block],
+) -> (CellTable, Vec<u32>, Vec<[u32; 3]>) {
+    let dims = planes.each_ref().map(|p| p.slabs());
+    // (cell, reference, index of the triangle in `live`)
+    let mut pairs: Vec<(u64, u32, u32)> = Vec::new();
+    for (k, (&id, block)) in live.iter().zip(blocks).enumerate() {
         let r = reference(id, block);
         for_each_cell(block, |x, y, z| {
-            pairs.push((u64::from(x) + nx * (u64::from(y) + ny * u64::from(z)), r))
+            pairs.push((linear_index(planes, [x, y, z]), r, k as u32))
         });
     }
     pairs.sort_unstable();
     let cells = pairs.chunk_by(|a, b| a.0 == b.0).count();
     let mut table = CellTable::with_capacity(cells);
-    let mut refs = Vec::with_capacity(pairs.len());
+    let mut words = Vec::with_capacity(pairs.len() + CULL_WORDS * cells);
     let mut stored = Vec::with_capacity(cells);
+    let [nx, ny, _] = dims.map(u64::from);
     for run in pairs.chunk_by(|a, b| a.0 == b.0) {
         let key = run[0].0;
-        table.insert(key, refs.len() as u32, run.len() as u32);
-        refs.extend(run.iter().map(|p| p.1));
         let (x, yz) = (key % nx, key / nx);
-        stored.push([x, yz % ny, yz / ny].map(|c| c as u32));
+        let cell = [x, yz % ny, yz / ny].map(|c| c as u32);
+        table.insert(key, words.len() as u32, (CULL_WORDS + run.len()) as u32);
+        words.extend(cull_words(
+            planes,
+            cell,
+            run.iter().map(|p| boxes[p.2 as usize]),
+        ));
+        words.extend(run.iter().map(|p| p.1));
+        stored.push(cell);
     }
-    (table, refs, stored)
+    (table, words, stored)
 }
 
 impl Accel for SpatialHash {
@@ -219,18 +232,22 @@ impl Accel for SpatialHash {
     ) -> f32 {
         let mailbox = &mut scratch.mailbox;
         let mut tmax = ray.tmax;
-        if self.refs.is_empty() {
+        if self.words.is_empty() {
             return tmax;
         }
         mailbox.next_ray();
         walk(&self.planes, ray, &mut tmax, |cell, tmax| {
             visitor.enter_node(id);
-            if !self.coarse.may_hold(cell) {
+            if !self.coarse.may_hold(cell.slabs) {
                 return;
             }
-            let (first, count) = self.table.get(self.key(cell));
-            let refs = &self.refs[first as usize..(first + count) as usize];
-            test_cell::<K, V>(&self.mesh, refs, ray, id, mailbox, tmax, visitor);
+            let (first, count) = self.table.get(cell.index);
+            let words = &self.words[first as usize..(first + count) as usize];
+            if let Some((cull, refs)) = words.split_first_chunk::<CULL_WORDS>()
+                && cull::may_hit(cull, ray, *tmax)
+            {
+                test_cell::<K, V>(&self.mesh, refs, ray, id, mailbox, tmax, visitor);
+            }
         });
         tmax
     }
@@ -263,7 +280,7 @@ impl Footprint for SpatialHash {
     fn heap_bytes(&self) -> usize {
         self.table.heap_bytes()
             + self.coarse.heap_bytes()
-            + self.refs.len() * size_of::<u32>()
+            + self.words.len() * size_of::<u32>()
             + self.planes.iter().map(|p| p.heap_bytes()).sum::<usize>()
     }
 }

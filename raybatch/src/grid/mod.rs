@@ -8,6 +8,8 @@
 //! - `planes`: the exact plane coordinates the build and the walk share;
 //! - [`sizing`]: how many cells ([`GridOptions`]);
 //! - `cells`: the compact storage (one offset per cell, one reference array);
+//! - `cull`: each stored cell's cull box, the bounds of what its triangles put inside it, so
+//!   that rays crossing the cell away from them skip its triangle tests;
 //! - `walk`: the exact 3D-DDA (the argument for exactness is in its docs);
 //! - [`mailbox`]: a small per-thread set of tested triangles, so a triangle in several cells is
 //!   tested once per ray;
@@ -18,6 +20,7 @@
 //! - `hash`: [`SpatialHash`], the sparse grid.
 
 pub(crate) mod cells;
+mod cull;
 mod hash;
 pub mod mailbox;
 pub(crate) mod planes;

@@ -9,7 +9,8 @@ use crate::hit::Visitor;
 use crate::mesh::Mesh;
 use crate::traverse::single::test_triangles;
 
-use super::cells::{Cells, blocks, grid_planes};
+use super::cells::{Cells, blocks, grid_planes, triangle_boxes};
+use super::cull;
 use super::mailbox::{Mailbox, SHARED};
 use super::scratch::GridScratch;
 use super::sizing::{GridOptions, cap, cell_shape, resolution};
@@ -47,10 +48,11 @@ impl UniformGrid {
         let shape = cell_shape(&mesh, &live, options);
         let mut dims = resolution(&bounds, live.len(), shape, options);
         let max_refs = REFERENCES_PER_TRIANGLE * live.len() as u64;
+        let boxes = triangle_boxes(&mesh, &live);
         loop {
             let planes = grid_planes(&bounds, dims);
-            let blocks = blocks(&mesh, &live, &planes);
-            match Cells::build(dims, &live, &blocks, max_refs) {
+            let blocks = blocks(&boxes, &planes);
+            match Cells::build(&planes, &live, &boxes, &blocks, max_refs) {
                 Ok(cells) => {
                     return Ok(Self {
                         mesh,
@@ -147,7 +149,9 @@ impl Accel for UniformGrid {
         mailbox.next_ray();
         walk(&self.planes, ray, &mut tmax, |cell, tmax| {
             visitor.enter_node(id);
-            if let Some(refs) = self.cells.occupied(cell) {
+            if let Some((cull, refs)) = self.cells.occupied_at(cell.index as usize)
+                && cull::may_hit(cull, ray, *tmax)
+            {
                 test_cell::<K, V>(&self.mesh, refs, ray, id, mailbox, tmax, visitor);
             }
         });
@@ -210,6 +214,65 @@ mod tests {
             t.push([3 * i + 3, 3 * i + 4, 3 * i + 5]);
         }
         Mesh::new(v, t).unwrap()
+    }
+
+    /// A bumpy height field of 2 x 16 x 16 triangles on a lattice of quarter units, so that
+    /// cull-box faces, cell planes and triangle edges coincide often.
+    fn lattice_terrain() -> Mesh {
+        let height = |x: u32, z: u32| ((x * 7 + z * 3) % 5) as f32 * 0.25;
+        let mut v = Vec::new();
+        for z in 0..=16 {
+            for x in 0..=16 {
+                v.push(Vec3::new(x as f32 * 0.5, height(x, z), z as f32 * 0.5));
+            }
+        }
+        let mut t = Vec::new();
+        for z in 0..16u32 {
+            for x in 0..16u32 {
+                let i = z * 17 + x;
+                t.extend([[i, i + 1, i + 17], [i + 1, i + 18, i + 17]]);
+            }
+        }
+        Mesh::new(v, t).unwrap()
+    }
+
+    #[test]
+    fn cull_boxes_lose_no_hit_on_lattice_rays() {
+        let mesh = Arc::new(lattice_terrain());
+        let mut rng = crate::test_support::TestRng::new(5);
+        let mut hits = 0;
+        for resolution in [None, Some([5, 3, 7]), Some([16, 1, 16])] {
+            let options = GridOptions {
+                resolution,
+                ..GridOptions::default()
+            };
+            let grid = UniformGrid::build(mesh.clone(), &options).unwrap();
+            let hash = SpatialHash::build(mesh.clone(), &options).unwrap();
+            for _ in 0..400 {
+                // Origins and directions on a quarter-unit lattice: rays along planes, through
+                // edges and vertices, short and long.
+                let o = (rng.vec3(5.0) * 4.0).round() * 0.25 + Vec3::new(4.0, 0.5, 4.0);
+                let d = (rng.vec3(2.0) * 2.0).round() * 0.5;
+                let ray = Ray::with_range(o, d, 0.0, rng.range(0.25, 12.0));
+                if !ray.is_valid() {
+                    continue;
+                }
+                let want = brute_force::cast_ray(&mesh, &ray, Kernel::Watertight);
+                hits += usize::from(want.is_some());
+                let bits = |h: Option<Hit>| h.map(|h| (h.triangle, h.t.to_bits()));
+                assert_eq!(bits(grid.cast_ray(&ray)), bits(want), "grid {ray:?}");
+                assert_eq!(bits(hash.cast_ray(&ray)), bits(want), "hash {ray:?}");
+                let mut all = brute_force::all_hits(&mesh, &ray, Kernel::Watertight);
+                Hit::sort(&mut all);
+                let mut got = grid.all_hits(&ray);
+                Hit::sort(&mut got);
+                assert_eq!(got, all, "grid all hits {ray:?}");
+            }
+        }
+        assert!(
+            hits > 150,
+            "only {hits} rays hit: the test would prove little"
+        );
     }
 
     #[test]

@@ -52,8 +52,24 @@ pub(crate) fn bounds(planes: &GridPlanes) -> Aabb {
     Aabb::new(Vec3::new(x.0, y.0, z.0), Vec3::new(x.1, y.1, z.1))
 }
 
+/// A cell the walk visits: its slab indices `[x, y, z]` and its linear index
+/// `x + nx * (y + ny * z)` (kept up to date step by step, so visitors need not compute it).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) struct Cell {
+    pub(crate) slabs: [u32; 3],
+    pub(crate) index: u64,
+}
+
+/// The linear index of cell `slabs` of a grid of `planes`.
+#[inline(always)]
+pub(crate) fn linear_index(planes: &GridPlanes, slabs: [u32; 3]) -> u64 {
+    let [x, y, z] = slabs.map(u64::from);
+    let [nx, ny] = [0, 1].map(|a| u64::from(planes[a].slabs()));
+    x + nx * (y + ny * z)
+}
+
 /// Walks `ray` through the cells of `planes` in order of entry distance, calling
-/// `visit(cell, tmax)` once for every cell (slab indices `[x, y, z]`) that may hold a hit in
+/// `visit(cell, tmax)` once for every cell ([`Cell`]) that may hold a hit in
 /// `[ray.tmin, *tmax]` (see the module docs). `visit` may shrink `*tmax` (the walk then stops
 /// earlier) or set it to [`RAY_DONE`] (the walk stops at once).
 #[inline(always)]
@@ -61,7 +77,7 @@ pub(crate) fn walk(
     planes: &GridPlanes,
     ray: &PreparedRay,
     tmax: &mut f32,
-    mut visit: impl FnMut([u32; 3], &mut f32),
+    mut visit: impl FnMut(Cell, &mut f32),
 ) {
     let Some(mut w) = Walk::start(planes, ray, *tmax) else {
         return;
@@ -70,21 +86,29 @@ pub(crate) fn walk(
     // the start, where every active cell is new).
     let mut entered = 3;
     loop {
-        if !w.visit_block(entered, tmax, &mut visit) {
+        // (A visitor that ends the ray sets `tmax` to RAY_DONE, -inf: the test below stops.)
+        w.visit_block(entered, tmax, &mut visit);
+        let a = w.next_axis();
+        let te = w.next_enter[a];
+        // Stops on +inf (no slab left), beyond the grid, beyond the best hit, or RAY_DONE
+        // (distances are never NaN: the axes that would give one have no events; `tmax` is
+        // never NaN either, so a plain comparison picks the nearer end).
+        let end = if *tmax < w.far { *tmax } else { w.far };
+        if te > end {
             return;
         }
-        // One arm per axis, so that every array index is a constant and the state stays in
-        // registers (measured with callgrind: indexed by a variable axis, it lived on the
-        // stack); one call of the visitor above, so that it is inlined.
-        let advanced = match w.next_axis() {
-            0 => w.advance::<0>(*tmax),
-            1 => w.advance::<1>(*tmax),
-            _ => w.advance::<2>(*tmax),
-        };
-        match advanced {
-            Some(a) => entered = a,
-            None => return,
+        if w.lagging != 0 {
+            if te > w.lag_until {
+                // Every slab left behind is left before `te` (the usual case, unless two
+                // planes are crossed within a few ulps of each other).
+                w.back = w.front;
+                w.lagging = 0;
+            } else {
+                w.leave_before(te);
+            }
         }
+        w.enter_next(a, te);
+        entered = a;
     }
 }
 
@@ -94,6 +118,7 @@ pub(crate) fn walk(
 /// leaves `s` and enters the next. Slabs from `back` to `front` (in the ray's order) are
 /// active.
 struct Walk<'a> {
+    planes: &'a GridPlanes,
     at: [&'a [f32]; 3],
     origin: [f32; 3],
     inv: [f32; 3],
@@ -105,10 +130,25 @@ struct Walk<'a> {
     last: [u32; 3],
     back: [u32; 3],
     front: [u32; 3],
+    /// The linear index of the cell of the `front` slabs, and how it changes when `front`
+    /// moves by `step` on each axis (wrapping: a negative change is added as its two's
+    /// complement).
+    index: u64,
+    index_step: [u64; 3],
     /// Entry distance of the slab after `front` (`+inf` if none, or if the ray is parallel).
     next_enter: [f32; 3],
-    /// Exit distance of slab `back` (`+inf` if the ray is parallel).
+    /// Exit distance of slab `back`, while `back != front` (see `lagging`).
     next_leave: [f32; 3],
+    /// Bit `i` set if axis `i` has more than one active slab (`back != front`): the slab just
+    /// left stays active for a few ulps after the next one is entered (the box test scales
+    /// exit distances up), so after each step the axis stepped on lags until the next step.
+    lagging: u32,
+    /// Per axis, the exit distance of the slab before `front` (`+inf` on a parallel axis that
+    /// keeps two slabs); only read for lagging axes.
+    lag_end: [f32; 3],
+    /// The largest `lag_end` of the lagging axes (anything if none lags): once a slab is
+    /// entered beyond it, no axis keeps more than its front slab.
+    lag_until: f32,
     /// Where the ray leaves the grid (capped to `f32::MAX`: hits have finite `t`, as in the
     /// box test, so `+inf` entries end the walk).
     far: f32,
@@ -120,6 +160,7 @@ impl<'a> Walk<'a> {
     #[inline(always)]
     fn start(planes: &'a GridPlanes, ray: &PreparedRay, tmax: f32) -> Option<Self> {
         let mut w = Walk {
+            planes,
             at: [0, 1, 2].map(|i| planes[i].planes()),
             origin: ray.origin.to_array(),
             inv: ray.inv_dir.to_array(),
@@ -128,8 +169,13 @@ impl<'a> Walk<'a> {
             last: [0; 3],
             back: [0; 3],
             front: [0; 3],
+            index: 0,
+            index_step: [0; 3],
             next_enter: [f32::INFINITY; 3],
             next_leave: [f32::INFINITY; 3],
+            lagging: 0,
+            lag_end: [f32::INFINITY; 3],
+            lag_until: f32::INFINITY,
             far: f32::MAX,
         };
         let mut t0 = ray.tmin;
@@ -137,8 +183,12 @@ impl<'a> Walk<'a> {
         for (i, axis) in planes.iter().enumerate() {
             let n = axis.slabs();
             if w.inv[i].is_infinite() {
-                // Parallel: the slabs holding the origin stay active for the whole ray.
+                // Parallel: the slabs holding the origin stay active for the whole ray (two
+                // if it lies on a plane: they lag with a leave distance of +inf).
                 (w.back[i], w.front[i]) = axis.holding(w.origin[i])?;
+                if w.back[i] != w.front[i] {
+                    w.lagging |= 1 << i;
+                }
                 continue;
             }
             let forward = w.inv[i] >= 0.0;
@@ -166,6 +216,17 @@ impl<'a> Walk<'a> {
                 w.place(i, axis, ray.dir[i], t0);
             }
         }
+        w.index = linear_index(planes, w.front);
+        let [nx, ny] = [0, 1].map(|a| u64::from(planes[a].slabs()));
+        let stride = [1, nx, nx * ny];
+        w.index_step = [0, 1, 2].map(|i| {
+            if w.step[i] == 1 {
+                stride[i]
+            } else {
+                stride[i].wrapping_neg()
+            }
+        });
+        w.planes = planes;
         Some(w)
     }
 
@@ -248,6 +309,11 @@ impl<'a> Walk<'a> {
         (self.back[i], self.front[i]) = (slab(back.min(front)), slab(back.max(front)));
         self.next_enter[i] = self.enter_after_front(i);
         self.next_leave[i] = self.leave(i, self.back[i]);
+        if self.back[i] != self.front[i] {
+            // (`lag_until` stays +inf: the next step takes the exact path and recomputes it.)
+            self.lagging |= 1 << i;
+            self.lag_end[i] = self.leave(i, self.front[i].wrapping_sub(self.step[i]));
+        }
     }
 
     /// The axis whose next slab is entered first (the lowest index on ties, so that the order
@@ -264,44 +330,71 @@ impl<'a> Walk<'a> {
         }
     }
 
-    /// Drops the slabs left strictly before `t` on every axis (keeping at least the front
-    /// one: a slab is only left once the next is entered, which keeps the range non-empty).
+    /// Drops the slabs left strictly before `t` on the lagging axes (keeping at least the
+    /// front one: a slab is only left once the next is entered, which keeps the range
+    /// non-empty).
     #[inline(always)]
+    #[cold]
     fn leave_before(&mut self, t: f32) {
+        self.lag_until = f32::NEG_INFINITY;
         for i in 0..3 {
-            while self.back[i] != self.front[i] && self.next_leave[i] < t {
+            if self.lagging & (1 << i) == 0 {
+                continue;
+            }
+            while self.next_leave[i] < t {
                 self.back[i] = self.back[i].wrapping_add(self.step[i]);
+                if self.back[i] == self.front[i] {
+                    self.lagging &= !(1 << i);
+                    break;
+                }
                 self.next_leave[i] = self.leave(i, self.back[i]);
+            }
+            if self.lagging & (1 << i) != 0 && self.lag_end[i] > self.lag_until {
+                self.lag_until = self.lag_end[i];
             }
         }
     }
 
-    /// Enters the next slab on axis `A` (the axis whose next entry comes first): `Some(A)`, or
-    /// `None` if the walk is over before it.
+    /// Enters the next slab on axis `a`, whose entry distance `te` comes first. The slab left
+    /// behind stays active until its exit distance, which is `te` scaled: the plane between
+    /// the two slabs is both its exit plane and the new slab's entry plane, and the two
+    /// distances are computed by the same formula (`leave` is `enter * EXIT_SCALE`).
     #[inline(always)]
-    fn advance<const A: usize>(&mut self, tmax: f32) -> Option<usize> {
-        let te = self.next_enter[A];
-        // Stops on +inf (no slab left), beyond the grid, beyond the best hit, or RAY_DONE
-        // (distances are never NaN: the axes that would give one have no events).
-        if te > tmax.min(self.far) {
-            return None;
+    fn enter_next(&mut self, a: usize, te: f32) {
+        let left = te * EXIT_SCALE;
+        if self.back[a] == self.front[a] {
+            self.next_leave[a] = left;
         }
-        self.leave_before(te);
-        self.front[A] = self.front[A].wrapping_add(self.step[A]);
-        self.next_enter[A] = self.enter_after_front(A);
-        Some(A)
+        self.lagging |= 1 << a;
+        self.lag_end[a] = left;
+        if self.lagging == 1 << a || left > self.lag_until {
+            self.lag_until = left;
+        }
+        self.front[a] = self.front[a].wrapping_add(self.step[a]);
+        self.index = self.index.wrapping_add(self.index_step[a]);
+        self.next_enter[a] = self.enter_after_front(a);
     }
 
     /// Visits the cells of the active block; when `entered` names an axis (`< 3`), only those
-    /// in the slab just entered on it (the others were visited before). False if the visitor
-    /// ended the ray.
+    /// in the slab just entered on it (the others were visited before). Stops early if the
+    /// visitor ends the ray.
     #[inline(always)]
-    fn visit_block(
-        &self,
-        entered: usize,
-        tmax: &mut f32,
-        visit: &mut impl FnMut([u32; 3], &mut f32),
-    ) -> bool {
+    fn visit_block(&self, entered: usize, tmax: &mut f32, visit: &mut impl FnMut(Cell, &mut f32)) {
+        // Almost always one cell: no axis but the one just entered has two active slabs.
+        let others = self.lagging & !(1u32 << entered);
+        if others == 0 {
+            let cell = Cell {
+                slabs: self.front,
+                index: self.index,
+            };
+            return visit(cell, tmax);
+        }
+        self.visit_range(entered, tmax, visit)
+    }
+
+    /// [`Walk::visit_block`] when an axis other than `entered` has several active slabs.
+    #[inline(never)]
+    fn visit_range(&self, entered: usize, tmax: &mut f32, visit: &mut impl FnMut(Cell, &mut f32)) {
         let range = |i: usize| {
             let (b, f) = (self.back[i], self.front[i]);
             if i == entered {
@@ -311,25 +404,18 @@ impl<'a> Walk<'a> {
             }
         };
         let [(x0, x1), (y0, y1), (z0, z1)] = [range(0), range(1), range(2)];
-        // (`while` loops: inclusive ranges compile to slower loops. One call site, so that the
-        // visitor is inlined.)
-        let mut z = z0;
-        while z <= z1 {
-            let mut y = y0;
-            while y <= y1 {
-                let mut x = x0;
-                while x <= x1 {
-                    visit([x, y, z], tmax);
+        for z in z0..=z1 {
+            for y in y0..=y1 {
+                for x in x0..=x1 {
+                    let slabs = [x, y, z];
+                    let index = linear_index(self.planes, slabs);
+                    visit(Cell { slabs, index }, tmax);
                     if *tmax == RAY_DONE {
-                        return false;
+                        return;
                     }
-                    x += 1;
                 }
-                y += 1;
             }
-            z += 1;
         }
-        true
     }
 }
 
@@ -349,7 +435,10 @@ mod tests {
         let ray = PreparedRay::new(ray).unwrap();
         let mut cells = Vec::new();
         let mut tmax = ray.tmax;
-        walk(planes, &ray, &mut tmax, |c, _| cells.push(c));
+        walk(planes, &ray, &mut tmax, |c, _| {
+            assert_eq!(c.index, linear_index(planes, c.slabs));
+            cells.push(c.slabs)
+        });
         cells
     }
 
@@ -459,7 +548,7 @@ mod tests {
         let mut seen = Vec::new();
         let mut tmax = ray.tmax;
         walk(&planes, &ray, &mut tmax, |c, t| {
-            seen.push(c[0]);
+            seen.push(c.slabs[0]);
             *t = 2.0; // a hit at x = 1: cells entered after t = 2 are skipped
         });
         assert_eq!(seen, [0, 1]);
