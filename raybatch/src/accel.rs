@@ -261,6 +261,19 @@ impl<'a> RayStream<'a> {
         }
     }
 
+    /// Rays `0..count` (`1 <= count <= 8`) copied out as eight lanes ([`Lanes::block`]), for
+    /// the packet walk; `None` in the records layout. Panics unless `count <= len()`.
+    ///
+    /// [`Lanes::block`]: crate::batch::lanes::Lanes::block
+    #[inline(always)]
+    pub(crate) fn block(&self, count: usize) -> Option<crate::batch::lanes::Block> {
+        assert!((1..=8).contains(&count) && count <= self.len());
+        match &self.storage {
+            Storage::Lanes(lanes) => Some(lanes.block(self.start, count)),
+            Storage::Records(_) => None,
+        }
+    }
+
     /// The sign-filter constants of rays `i..i + 4`; panics unless `i + 4 <= len()`.
     #[inline(always)]
     pub(crate) fn quad(&self, i: usize) -> RayQuad {

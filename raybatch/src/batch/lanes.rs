@@ -13,6 +13,8 @@ use glam::{BVec4A, Vec3, Vec4};
 
 use crate::geom::PreparedRay;
 #[cfg(target_arch = "x86_64")]
+use crate::geom::box_octet::BoxOctet;
+#[cfg(target_arch = "x86_64")]
 use crate::geom::sign_filter::RayOctet;
 use crate::geom::sign_filter::RayQuad;
 #[cfg(target_arch = "x86_64")]
@@ -126,6 +128,30 @@ impl Lanes {
         )
     }
 
+    /// Lanes `lane..lane + count` (`1 <= count <= 8`, all below [`Lanes::len`]) copied out as
+    /// a [`Block`], for the packet walk; the block's lanes past `count` hold other rays (the
+    /// next lanes, or copies of lane `lane` at the end of the columns), which the walk leaves
+    /// out of every mask.
+    #[inline(always)]
+    pub(crate) fn block(&self, lane: usize, count: usize) -> Block {
+        debug_assert!((1..=8).contains(&count) && lane + count <= self.len());
+        let mut block = Block {
+            cols: [[0; 8]; COLUMNS],
+        };
+        if lane + 8 <= self.len() {
+            for (out, col) in block.cols.iter_mut().zip(&self.cols) {
+                *out = col[lane..lane + 8].try_into().unwrap();
+            }
+        } else {
+            for (out, col) in block.cols.iter_mut().zip(&self.cols) {
+                for (j, value) in out.iter_mut().enumerate() {
+                    *value = col[lane + if j < count { j } else { 0 }];
+                }
+            }
+        }
+        block
+    }
+
     /// The prepared ray in lane `lane`, bit for bit as it was written (with the current
     /// range end).
     #[inline(always)]
@@ -165,5 +191,67 @@ impl Lanes {
     #[inline(always)]
     pub fn set_tmax(&mut self, lane: usize, tmax: f32) {
         self.cols[TMAX][lane] = tmax.to_bits();
+    }
+}
+
+/// Eight lanes of the columns, copied next to each other ([`Lanes::block`]): the rays of a
+/// packet walk (`traverse::packet`).
+#[derive(Clone, Copy, Debug)]
+#[repr(align(32))]
+pub(crate) struct Block {
+    pub cols: [[u32; 8]; COLUMNS],
+}
+
+impl Block {
+    /// The prepared ray in lane `j`, bit for bit as it was written (with the range end it had
+    /// when the block was copied).
+    #[inline(always)]
+    pub fn ray(&self, j: usize) -> PreparedRay {
+        let f = |c: usize| f32::from_bits(self.cols[c][j]);
+        let axes = self.cols[AXES][j];
+        PreparedRay {
+            origin: Vec3::new(f(OX), f(OY), f(OZ)),
+            dir: Vec3::new(f(DX), f(DY), f(DZ)),
+            inv_dir: Vec3::new(f(IX), f(IY), f(IZ)),
+            tmin: f(TMIN),
+            tmax: f(TMAX),
+            octant_mask: (axes >> 8) as u8,
+            kz: axes as u8,
+            shear: Vec3::new(f(SX), f(SY), f(SZ)),
+            pad: [0; 6],
+        }
+    }
+
+    /// The range ends of the eight lanes.
+    #[inline(always)]
+    pub fn tmax(&self) -> [f32; 8] {
+        self.cols[TMAX].map(f32::from_bits)
+    }
+
+    /// The batch positions of the eight lanes.
+    #[inline(always)]
+    pub fn ids(&self) -> [u32; 8] {
+        self.cols[ID]
+    }
+
+    /// The sign-filter constants of the eight lanes.
+    #[cfg(target_arch = "x86_64")]
+    #[inline(always)]
+    pub(crate) fn octet(&self, avx2: Avx2) -> RayOctet {
+        let c = &self.cols;
+        RayOctet::from_columns(avx2, [&c[OX], &c[OY], &c[OZ]], [&c[SX], &c[SY]], &c[AXES])
+    }
+
+    /// The slab-test constants of the eight lanes.
+    #[cfg(target_arch = "x86_64")]
+    #[inline(always)]
+    pub(crate) fn boxes(&self, avx2: Avx2) -> BoxOctet {
+        let c = &self.cols;
+        BoxOctet::from_columns(
+            avx2,
+            [&c[OX], &c[OY], &c[OZ]],
+            [&c[IX], &c[IY], &c[IZ]],
+            &c[TMIN],
+        )
     }
 }

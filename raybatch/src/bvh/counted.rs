@@ -49,6 +49,7 @@ impl<B: Bvh> Bvh for Counted<B> {
     type Cache = B::Cache;
     type NodeBox = B::NodeBox;
     const AVX2_TRAVERSAL: bool = B::AVX2_TRAVERSAL;
+    const PACKET_WALK: bool = B::PACKET_WALK;
 
     fn keep(bounds: &Aabb) -> Self::NodeBox {
         B::keep(bounds)

@@ -114,6 +114,12 @@ pub trait Bvh: Sync {
     /// (measured per node format: it speeds up full nodes and slows down quantized ones).
     const AVX2_TRAVERSAL: bool = true;
 
+    /// Whether the stream engine finishes few-ray subtrees with the packet walk
+    /// (`traverse::packet`, [`crate::batch::BatchOptions::packet_from`]) rather than one ray
+    /// at a time: worth it where a node visit is dear (the zero-byte tree recomputes boxes and
+    /// tests triangles at every node); the AABB tree's one-ray loop was faster on the clock.
+    const PACKET_WALK: bool = false;
+
     /// Number of nodes (0 for an empty tree). (`Footprint::node_count` says the same for
     /// tables; this one is what traversal needs.)
     fn len(&self) -> usize;
@@ -159,6 +165,9 @@ pub struct BvhScratch<C, N = ()> {
     pub(crate) stack: Vec<(u32, f32, N)>,
     /// Batched stack: pending node, how many rays of the stream reach its parent, its box.
     pub(crate) stream_stack: Vec<(u32, u32, Aabb)>,
+    /// The packet walk's stack (`traverse::packet`): pending node, the lanes that touch its
+    /// box, their entry distances, what is kept of its box.
+    pub(crate) packet_stack: Vec<(u32, u32, [f32; 8], N)>,
     /// The tree's box cache.
     pub(crate) cache: C,
 }

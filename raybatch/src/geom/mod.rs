@@ -1,6 +1,9 @@
 //! Geometry kernels: rays, boxes and ray/triangle tests.
 
 pub mod aabb;
+#[cfg(target_arch = "x86_64")]
+#[allow(unsafe_code)]
+pub(crate) mod box_octet;
 pub mod ray;
 pub(crate) mod sign_filter;
 pub mod triangle;

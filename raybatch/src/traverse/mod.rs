@@ -10,6 +10,8 @@
 #[allow(unsafe_code)]
 pub(crate) mod avx2;
 pub(crate) mod dispatch;
+#[cfg(target_arch = "x86_64")]
+pub(crate) mod packet;
 pub(crate) mod single;
 pub(crate) mod stream;
 

@@ -14,6 +14,7 @@
 
 use glam::Vec3;
 
+use super::avx2::{self, Loop};
 use super::single::{test_triangles, trace_below};
 use crate::accel::RayStream;
 use crate::bvh::ordering::second_child_first;
@@ -24,8 +25,48 @@ use crate::hit::Visitor;
 #[cfg(target_arch = "x86_64")]
 use crate::x86::Avx2;
 
-/// Runs every ray of `stream` through the tree.
+/// [`trace_stream_in`] as a [`Loop`], to run in the AVX2 copy.
+struct Stream<'a, 's, B: Bvh, K, V> {
+    tree: &'a B,
+    stream: &'a mut RayStream<'s>,
+    scratch: &'a mut BvhScratch<B::Cache, B::NodeBox>,
+    visitor: &'a mut V,
+    kernel: std::marker::PhantomData<K>,
+}
+
+impl<B: Bvh, K: TriangleTest, V: Visitor> Loop for Stream<'_, '_, B, K, V> {
+    type Output = ();
+    #[inline(always)]
+    fn run(self) {
+        trace_stream_in::<B, K, V>(self.tree, self.stream, self.scratch, self.visitor)
+    }
+}
+
+/// Runs every ray of `stream` through the tree, in the AVX2 copy where the CPU has AVX2 and
+/// the tree wants it ([`Bvh::AVX2_TRAVERSAL`]).
 pub(crate) fn trace_stream<B, K, V>(
+    tree: &B,
+    stream: &mut RayStream<'_>,
+    scratch: &mut BvhScratch<B::Cache, B::NodeBox>,
+    visitor: &mut V,
+) where
+    B: Bvh,
+    K: TriangleTest,
+    V: Visitor,
+{
+    let task = Stream::<B, K, V> {
+        tree,
+        stream,
+        scratch,
+        visitor,
+        kernel: std::marker::PhantomData,
+    };
+    avx2::run(task, B::AVX2_TRAVERSAL)
+}
+
+/// Runs every ray of `stream` through the tree.
+#[inline(always)]
+fn trace_stream_in<B, K, V>(
     tree: &B,
     stream: &mut RayStream<'_>,
     scratch: &mut BvhScratch<B::Cache, B::NodeBox>,
@@ -39,6 +80,7 @@ pub(crate) fn trace_stream<B, K, V>(
         return;
     }
     let single_ray_below = stream.options().single_ray_below;
+    let packet_from = stream.options().packet_from;
     let filter = Filter::detect();
     let mut pending = std::mem::take(&mut scratch.stream_stack);
     pending.clear();
@@ -56,6 +98,19 @@ pub(crate) fn trace_stream<B, K, V>(
         }
         if active < single_ray_below {
             let start = (index, B::keep(&bounds));
+            #[cfg(target_arch = "x86_64")]
+            if let Filter::Eight(avx2) = filter
+                && B::PACKET_WALK
+                && active >= packet_from
+                && active <= 8
+            {
+                let done = super::packet::finish::<B, K, V>(
+                    avx2, tree, stream, active, start, scratch, visitor,
+                );
+                if done {
+                    continue;
+                }
+            }
             finish_one_by_one::<B, K, V>(tree, stream, active, start, scratch, visitor);
             continue;
         }
@@ -193,10 +248,19 @@ impl LeafBatch {
         if let Filter::Eight(avx2) = filter
             && active >= 8
         {
-            return self.test_windows::<8, K, V>(stream, active, visitor, |stream, i| {
-                let octet = stream.octet(avx2, i);
-                self.may_hit_with(|corners| octet.may_hit(avx2, corners))
-            });
+            return self.test_windows::<8, K, V>(
+                stream,
+                active,
+                visitor,
+                #[inline(always)]
+                |stream, i| {
+                    let octet = stream.octet(avx2, i);
+                    self.may_hit_with(
+                        #[inline(always)]
+                        |corners| octet.may_hit(avx2, corners),
+                    )
+                },
+            );
         }
         let _ = filter;
         self.test_windows::<4, K, V>(stream, active, visitor, |stream, i| {
@@ -272,6 +336,7 @@ impl LeafBatch {
 /// Tests the triangles in `slots` (read with `triangle`) against rays `0..active` of the
 /// stream, through the sign filter `filter` where the kernel has one: each triangle fetched
 /// once for all rays, each ray rebuilt from its lane once per batch of triangles.
+#[inline(always)]
 fn test_leaf<K, V>(
     filter: Filter,
     stream: &mut RayStream<'_>,
@@ -302,6 +367,7 @@ fn test_leaf<K, V>(
 /// time: when only a few rays are left, the per-node cost of the stream (partition, stack)
 /// outweighs what they share. The single-ray loop with each ray's current range gives the same
 /// answers (they do not depend on the visiting order).
+#[inline(always)]
 fn finish_one_by_one<B, K, V>(
     tree: &B,
     stream: &mut RayStream<'_>,

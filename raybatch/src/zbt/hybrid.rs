@@ -287,6 +287,7 @@ impl TopBuilder {
 impl<const TOP_LEVEL: bool> Bvh for PackedTree<TOP_LEVEL> {
     type Cache = BoxCache;
     type NodeBox = Aabb;
+    const PACKET_WALK: bool = true;
 
     #[inline(always)]
     fn keep(bounds: &Aabb) -> Aabb {
