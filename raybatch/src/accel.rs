@@ -265,6 +265,7 @@ impl<'a> RayStream<'a> {
     /// the packet walk; `None` in the records layout. Panics unless `count <= len()`.
     ///
     /// [`Lanes::block`]: crate::batch::lanes::Lanes::block
+    #[cfg(target_arch = "x86_64")]
     #[inline(always)]
     pub(crate) fn block(&self, count: usize) -> Option<crate::batch::lanes::Block> {
         assert!((1..=8).contains(&count) && count <= self.len());

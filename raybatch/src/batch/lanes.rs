@@ -132,6 +132,7 @@ impl Lanes {
     /// a [`Block`], for the packet walk; the block's lanes past `count` hold other rays (the
     /// next lanes, or copies of lane `lane` at the end of the columns), which the walk leaves
     /// out of every mask.
+    #[cfg(target_arch = "x86_64")]
     #[inline(always)]
     pub(crate) fn block(&self, lane: usize, count: usize) -> Block {
         debug_assert!((1..=8).contains(&count) && lane + count <= self.len());
@@ -195,13 +196,15 @@ impl Lanes {
 }
 
 /// Eight lanes of the columns, copied next to each other ([`Lanes::block`]): the rays of a
-/// packet walk (`traverse::packet`).
+/// packet walk (`traverse::packet`, x86-64 only).
+#[cfg(target_arch = "x86_64")]
 #[derive(Clone, Copy, Debug)]
 #[repr(align(32))]
 pub(crate) struct Block {
     pub cols: [[u32; 8]; COLUMNS],
 }
 
+#[cfg(target_arch = "x86_64")]
 impl Block {
     /// The prepared ray in lane `j`, bit for bit as it was written (with the range end it had
     /// when the block was copied).

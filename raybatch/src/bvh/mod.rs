@@ -167,6 +167,7 @@ pub struct BvhScratch<C, N = ()> {
     pub(crate) stream_stack: Vec<(u32, u32, Aabb)>,
     /// The packet walk's stack (`traverse::packet`): pending node, the lanes that touch its
     /// box, their entry distances, what is kept of its box.
+    #[cfg(target_arch = "x86_64")]
     pub(crate) packet_stack: Vec<(u32, u32, [f32; 8], N)>,
     /// The tree's box cache.
     pub(crate) cache: C,

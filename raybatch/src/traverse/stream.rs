@@ -80,6 +80,7 @@ fn trace_stream_in<B, K, V>(
         return;
     }
     let single_ray_below = stream.options().single_ray_below;
+    #[cfg(target_arch = "x86_64")]
     let packet_from = stream.options().packet_from;
     let filter = Filter::detect();
     let mut pending = std::mem::take(&mut scratch.stream_stack);
