@@ -2,7 +2,9 @@
 //! process (one thread, incoherent rays, all rays in one call), best of `ROUNDS` each: the ratio
 //! issue 8's batched target is about, without the other variants `zbt_variants` times.
 //!
-//! `cargo run --release -p raybatch-tools --example zbt_batched [-- bunny|FILE.obj [RAYS [ROUNDS]]]`
+//! `cargo run --release -p raybatch-tools --example zbt_batched [-- SCENE|FILE.obj [RAYS [ROUNDS
+//! [PACKET_FROM,...]]]]` (the last: values of `BatchOptions::packet_from` to time, each with
+//! both trees, `off` for none; by default the default options only).
 
 use std::time::Instant;
 
@@ -12,17 +14,11 @@ use raybatch_tools::scenes::{self, RaySet};
 
 fn main() {
     let mut args = std::env::args().skip(1);
-    let scene = match args.next().as_deref() {
-        None => scenes::bunny(),
-        Some(path) if path.ends_with(".obj") => scenes::Scene {
-            name: "mesh",
-            mesh: raybatch::Mesh::load_obj(path).expect("a readable OBJ file"),
-            kind: scenes::SceneKind::Object,
-        },
-        Some(name) => scenes::named(name).expect("a scene name"),
-    };
+    let scene = scenes::from_arg(args.next().as_deref());
     let count: usize = args.next().map_or(200_000, |n| n.parse().expect("a count"));
     let rounds: usize = args.next().map_or(7, |n| n.parse().expect("a count"));
+    // Values of `BatchOptions::packet_from` to time, each with both trees (`off`: none).
+    let packet_from = args.next();
     let rays = scenes::generate(RaySet::Incoherent, &scene.mesh, scene.kind, count, 7);
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(1)
@@ -31,11 +27,9 @@ fn main() {
     pool.install(|| {
         let aabb: AabbTree = AabbTree::build(scene.mesh.clone(), &BuildOptions::default()).unwrap();
         let (zbt, perm) = ZeroByteTree::build(scene.mesh.clone(), &ZbtOptions::default()).unwrap();
-        // Variants of the batched options, each timed with both trees (env RB_VARIANTS:
-        // comma-separated `packet_from` values, `off` for none; default: the defaults).
-        let variants: Vec<(String, BatchOptions)> = match std::env::var("RB_VARIANTS") {
-            Err(_) => vec![("default".into(), BatchOptions::default())],
-            Ok(list) => list
+        let variants: Vec<(String, BatchOptions)> = match &packet_from {
+            None => vec![("default".into(), BatchOptions::default())],
+            Some(list) => list
                 .split(',')
                 .map(|v| {
                     let from = if v == "off" { usize::MAX } else { v.parse().unwrap() };

@@ -17,17 +17,7 @@ use raybatch_tools::scenes::{self, RaySet};
 
 fn main() {
     let mut args = std::env::args().skip(1);
-    let scene = match args.next().as_deref() {
-        None => scenes::bunny(),
-        Some(path) if path.ends_with(".obj") => scenes::Scene {
-            name: "mesh",
-            mesh: raybatch::Mesh::load_obj(path).expect("a readable OBJ file"),
-            kind: scenes::SceneKind::Object,
-        },
-        Some(name) => scenes::named(name).unwrap_or_else(|| {
-            panic!("unknown scene {name}: bunny, terrain, city, sparse or a .obj file")
-        }),
-    };
+    let scene = scenes::from_arg(args.next().as_deref());
     let count: usize = args
         .next()
         .map_or(200_000, |n| n.parse().expect("a ray count"));

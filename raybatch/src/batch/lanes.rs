@@ -157,19 +157,7 @@ impl Lanes {
     /// range end).
     #[inline(always)]
     pub fn ray(&self, lane: usize) -> PreparedRay {
-        let f = |c: usize| f32::from_bits(self.cols[c][lane]);
-        let axes = self.cols[AXES][lane];
-        PreparedRay {
-            origin: Vec3::new(f(OX), f(OY), f(OZ)),
-            dir: Vec3::new(f(DX), f(DY), f(DZ)),
-            inv_dir: Vec3::new(f(IX), f(IY), f(IZ)),
-            tmin: f(TMIN),
-            tmax: f(TMAX),
-            octant_mask: (axes >> 8) as u8,
-            kz: axes as u8,
-            shear: Vec3::new(f(SX), f(SY), f(SZ)),
-            pad: [0; 6],
-        }
+        ray_from_columns(|c| self.cols[c][lane])
     }
 
     /// The origin of the ray in `lane`.
@@ -210,19 +198,7 @@ impl Block {
     /// when the block was copied).
     #[inline(always)]
     pub fn ray(&self, j: usize) -> PreparedRay {
-        let f = |c: usize| f32::from_bits(self.cols[c][j]);
-        let axes = self.cols[AXES][j];
-        PreparedRay {
-            origin: Vec3::new(f(OX), f(OY), f(OZ)),
-            dir: Vec3::new(f(DX), f(DY), f(DZ)),
-            inv_dir: Vec3::new(f(IX), f(IY), f(IZ)),
-            tmin: f(TMIN),
-            tmax: f(TMAX),
-            octant_mask: (axes >> 8) as u8,
-            kz: axes as u8,
-            shear: Vec3::new(f(SX), f(SY), f(SZ)),
-            pad: [0; 6],
-        }
+        ray_from_columns(|c| self.cols[c][j])
     }
 
     /// The range ends of the eight lanes.
@@ -238,7 +214,6 @@ impl Block {
     }
 
     /// The sign-filter constants of the eight lanes.
-    #[cfg(target_arch = "x86_64")]
     #[inline(always)]
     pub(crate) fn octet(&self, avx2: Avx2) -> RayOctet {
         let c = &self.cols;
@@ -246,7 +221,6 @@ impl Block {
     }
 
     /// The slab-test constants of the eight lanes.
-    #[cfg(target_arch = "x86_64")]
     #[inline(always)]
     pub(crate) fn boxes(&self, avx2: Avx2) -> BoxOctet {
         let c = &self.cols;
@@ -256,5 +230,24 @@ impl Block {
             [&c[IX], &c[IY], &c[IZ]],
             &c[TMIN],
         )
+    }
+}
+
+/// The prepared ray whose column `c` holds `word(c)`, bit for bit as it was written: the one
+/// decoding of a lane, for [`Lanes`] and the packet walk's copies.
+#[inline(always)]
+fn ray_from_columns(word: impl Fn(usize) -> u32) -> PreparedRay {
+    let f = |c: usize| f32::from_bits(word(c));
+    let axes = word(AXES);
+    PreparedRay {
+        origin: Vec3::new(f(OX), f(OY), f(OZ)),
+        dir: Vec3::new(f(DX), f(DY), f(DZ)),
+        inv_dir: Vec3::new(f(IX), f(IY), f(IZ)),
+        tmin: f(TMIN),
+        tmax: f(TMAX),
+        octant_mask: (axes >> 8) as u8,
+        kz: axes as u8,
+        shear: Vec3::new(f(SX), f(SY), f(SZ)),
+        pad: [0; 6],
     }
 }

@@ -10,15 +10,14 @@
 //! `tests` compares them bit for bit on rays full of special values.
 
 use std::arch::x86_64::{
-    __m256, __m256i, _CMP_EQ_OQ, _CMP_GE_OQ, _CMP_GT_OQ, _CMP_LE_OQ, _CMP_LT_OQ, _mm256_and_ps,
+    __m256, __m256i, _CMP_EQ_OQ, _CMP_GE_OQ, _CMP_LE_OQ, _CMP_LT_OQ, _mm256_and_ps,
     _mm256_andnot_ps, _mm256_blendv_ps, _mm256_castps_si256, _mm256_castsi256_ps, _mm256_cmp_ps,
-    _mm256_div_ps, _mm256_loadu_ps, _mm256_max_ps, _mm256_min_ps, _mm256_movemask_ps,
-    _mm256_mul_ps, _mm256_or_si256, _mm256_set1_epi32, _mm256_set1_ps, _mm256_setzero_ps,
-    _mm256_slli_epi32, _mm256_sllv_epi32, _mm256_srli_epi32, _mm256_store_ps, _mm256_storeu_si256,
-    _mm256_sub_ps,
+    _mm256_div_ps, _mm256_loadu_ps, _mm256_movemask_ps, _mm256_or_si256, _mm256_set1_epi32,
+    _mm256_set1_ps, _mm256_setzero_ps, _mm256_slli_epi32, _mm256_sllv_epi32, _mm256_srli_epi32,
+    _mm256_store_ps, _mm256_storeu_si256,
 };
 
-use crate::geom::aabb::EXIT_SCALE;
+use crate::geom::box_octet::slab_range;
 use crate::geom::{Aabb, PreparedRay, Ray};
 use crate::x86::Avx2;
 use crate::x86::transpose;
@@ -154,37 +153,11 @@ unsafe fn prepare_avx2(rays: &[Ray; 8], cull: Option<&Aabb>, out: &mut [Prepared
 }
 
 /// Which of eight rays (columns: origins, inverse directions, ranges) touch `bounds`: lane by
-/// lane the slab test of `geom::aabb::box_entry`, the same operations in the same order (near
-/// and far planes picked by the sign of the inverse direction, the exit scaled, each axis
-/// folded into the range with a compare and a select, so a NaN lane leaves it alone).
+/// lane the slab test of `geom::aabb::box_entry` ([`slab_range`]).
 #[inline]
 #[target_feature(enable = "avx2")]
-fn touches(
-    bounds: &Aabb,
-    origin: [__m256; 3],
-    inv: [__m256; 3],
-    (tmin, tmax): (__m256, __m256),
-) -> u32 {
-    let zero = _mm256_setzero_ps();
-    let mut near = tmin;
-    let hi = _mm256_min_ps(tmax, _mm256_set1_ps(f32::MAX));
-    let mut far = hi;
-    for a in 0..3 {
-        let negative = _mm256_cmp_ps::<_CMP_LT_OQ>(inv[a], zero);
-        let (min, max) = (_mm256_set1_ps(bounds.min[a]), _mm256_set1_ps(bounds.max[a]));
-        let near_plane = _mm256_blendv_ps(min, max, negative);
-        let far_plane = _mm256_blendv_ps(max, min, negative);
-        let enter = _mm256_mul_ps(_mm256_sub_ps(near_plane, origin[a]), inv[a]);
-        let exit = _mm256_mul_ps(
-            _mm256_mul_ps(_mm256_sub_ps(far_plane, origin[a]), inv[a]),
-            _mm256_set1_ps(EXIT_SCALE),
-        );
-        // `select(enter > tmin, enter, tmin)`, then the running maximum (no NaN reaches it).
-        let enter = _mm256_blendv_ps(tmin, enter, _mm256_cmp_ps::<_CMP_GT_OQ>(enter, tmin));
-        near = _mm256_max_ps(near, enter);
-        let exit = _mm256_blendv_ps(hi, exit, _mm256_cmp_ps::<_CMP_LT_OQ>(exit, hi));
-        far = _mm256_min_ps(far, exit);
-    }
+fn touches(bounds: &Aabb, origin: [__m256; 3], inv: [__m256; 3], range: (__m256, __m256)) -> u32 {
+    let (near, far) = slab_range(bounds.min, bounds.max, origin, inv, range);
     _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(near, far)) as u32
 }
 

@@ -67,22 +67,9 @@ impl BoxOctet {
     #[inline]
     #[target_feature(enable = "avx2")]
     unsafe fn entries_avx2(&self, min: Vec3, max: Vec3, tmax: &[f32; 8]) -> Entries {
-        let zero = _mm256_setzero_ps();
-        let scale = _mm256_set1_ps(EXIT_SCALE);
         // SAFETY: `tmax` is 32 readable bytes; an unaligned load is allowed.
         let tmax = unsafe { _mm256_loadu_ps(tmax.as_ptr()) };
-        let mut near = self.tmin;
-        let mut far = _mm256_min_ps(tmax, _mm256_set1_ps(f32::MAX));
-        for axis in 0..3 {
-            let (o, inv) = (self.origin[axis], self.inv_dir[axis]);
-            let t0 = _mm256_mul_ps(_mm256_sub_ps(_mm256_set1_ps(min[axis]), o), inv);
-            let t1 = _mm256_mul_ps(_mm256_sub_ps(_mm256_set1_ps(max[axis]), o), inv);
-            let negative = _mm256_cmp_ps::<_CMP_LT_OQ>(inv, zero);
-            let enter = _mm256_blendv_ps(t0, t1, negative);
-            let exit = _mm256_mul_ps(_mm256_blendv_ps(t1, t0, negative), scale);
-            near = _mm256_blendv_ps(near, enter, _mm256_cmp_ps::<_CMP_GT_OQ>(enter, near));
-            far = _mm256_blendv_ps(far, exit, _mm256_cmp_ps::<_CMP_LT_OQ>(exit, far));
-        }
+        let (near, far) = slab_range(min, max, self.origin, self.inv_dir, (self.tmin, tmax));
         let touched = _mm256_cmp_ps::<_CMP_LE_OQ>(near, far);
         Entries(_mm256_blendv_ps(
             _mm256_set1_ps(f32::INFINITY),
@@ -90,6 +77,37 @@ impl BoxOctet {
             touched,
         ))
     }
+}
+
+/// The slab test's range `(near, far)` of eight rays (columns: origins, inverse directions,
+/// `tmin` and `tmax`) through the box `min..max`, lane by lane `box_entry`'s `f32` operations
+/// (see the module docs): the ray touches the box where `near <= far`, and then enters it at
+/// `near`. The one copy of the eight-ray slab test, also used where a batch is prepared
+/// (`batch::prepare_avx2`, rays outside the structure's box).
+#[inline]
+#[target_feature(enable = "avx2")]
+pub(crate) fn slab_range(
+    min: Vec3,
+    max: Vec3,
+    origin: [__m256; 3],
+    inv_dir: [__m256; 3],
+    (tmin, tmax): (__m256, __m256),
+) -> (__m256, __m256) {
+    let zero = _mm256_setzero_ps();
+    let scale = _mm256_set1_ps(EXIT_SCALE);
+    let mut near = tmin;
+    let mut far = _mm256_min_ps(tmax, _mm256_set1_ps(f32::MAX));
+    for axis in 0..3 {
+        let (o, inv) = (origin[axis], inv_dir[axis]);
+        let t0 = _mm256_mul_ps(_mm256_sub_ps(_mm256_set1_ps(min[axis]), o), inv);
+        let t1 = _mm256_mul_ps(_mm256_sub_ps(_mm256_set1_ps(max[axis]), o), inv);
+        let negative = _mm256_cmp_ps::<_CMP_LT_OQ>(inv, zero);
+        let enter = _mm256_blendv_ps(t0, t1, negative);
+        let exit = _mm256_mul_ps(_mm256_blendv_ps(t1, t0, negative), scale);
+        near = _mm256_blendv_ps(near, enter, _mm256_cmp_ps::<_CMP_GT_OQ>(enter, near));
+        far = _mm256_blendv_ps(far, exit, _mm256_cmp_ps::<_CMP_LT_OQ>(exit, far));
+    }
+    (near, far)
 }
 
 /// Eight entry distances ([`BoxOctet::entries`]).

@@ -23,21 +23,24 @@ pub(crate) type Block = [(u32, u32); 3];
 /// A triangle's box as `(min, max)`.
 pub(crate) type TriangleBox = (Vec3, Vec3);
 
-/// The box of every triangle of `live` (ids of non-degenerate triangles), in that order.
-pub(crate) fn triangle_boxes(mesh: &Mesh, live: &[u32]) -> Vec<TriangleBox> {
-    live.iter()
-        .map(|&id| {
+/// The box of every triangle of `mesh`, by triangle id.
+pub(crate) fn triangle_boxes(mesh: &Mesh) -> Vec<TriangleBox> {
+    (0..mesh.triangle_count() as u32)
+        .map(|id| {
             let b = Aabb::from_points(&mesh.triangle(id));
             (b.min, b.max)
         })
         .collect()
 }
 
-/// The block of every triangle box of `boxes`, in that order.
-pub(crate) fn blocks(boxes: &[TriangleBox], planes: &GridPlanes) -> Vec<Block> {
-    boxes
-        .iter()
-        .map(|(min, max)| [0, 1, 2].map(|a| planes[a].covering(min[a], max[a])))
+/// The block of every triangle of `live` (ids of non-degenerate triangles, whose boxes are
+/// `boxes[id]`), in that order.
+pub(crate) fn blocks(live: &[u32], boxes: &[TriangleBox], planes: &GridPlanes) -> Vec<Block> {
+    live.iter()
+        .map(|&id| {
+            let (min, max) = boxes[id as usize];
+            [0, 1, 2].map(|a| planes[a].covering(min[a], max[a]))
+        })
         .collect()
 }
 
@@ -83,8 +86,9 @@ pub(crate) struct Cells {
 }
 
 impl Cells {
-    /// The cells of grid `planes` holding the triangles `live` with their `boxes` and
-    /// `blocks`; `Err` with the number of references needed if that is more than `max_refs`.
+    /// The cells of grid `planes` holding the triangles `live` with their `blocks` (the boxes
+    /// of all triangles, by id: `boxes`); `Err` with the number of references needed if that
+    /// is more than `max_refs`.
     pub(crate) fn build(
         planes: &GridPlanes,
         live: &[u32],
@@ -113,9 +117,10 @@ impl Cells {
             let header = if counts[c] > 0 { CULL_WORDS as u32 } else { 0 };
             offsets[c + 1] = offsets[c] + header + counts[c];
         }
-        // References go after each cell's header; `cursor` is the next free word.
+        // References go after each cell's header, at the end of its words; `cursor` is the
+        // next free word.
         let mut cursor: Vec<u32> = (0..cell_count)
-            .map(|c| offsets[c] + if counts[c] > 0 { CULL_WORDS as u32 } else { 0 })
+            .map(|c| offsets[c + 1] - counts[c])
             .collect();
         let mut words = vec![0u32; total];
         for (&id, block) in live.iter().zip(blocks) {
@@ -139,15 +144,12 @@ impl Cells {
             }
             occupied[c / 64] |= 1 << (c % 64);
             let start = cells.offsets[c] as usize;
-            let cell = cell_of(dims, c);
+            let cell = cell_of(dims, c as u64);
             let refs = &cells.words[start + CULL_WORDS..cells.offsets[c + 1] as usize];
             let cull = cull_words(
                 planes,
                 cell,
-                refs.iter().map(|&r| {
-                    let k = live.partition_point(|&id| id < r & !SHARED);
-                    boxes[k]
-                }),
+                refs.iter().map(|&r| boxes[(r & !SHARED) as usize]),
             );
             cells.words[start..start + CULL_WORDS].copy_from_slice(&cull);
         }
@@ -155,16 +157,14 @@ impl Cells {
         Ok(cells)
     }
 
-    /// The cull box and references of cell `c` (a linear index, [`cell_index`]), `None` if it
-    /// holds none.
+    /// The words of cell `c` (a linear index, [`cell_index`]: its cull box, then its
+    /// references), `None` if it holds none.
     #[inline(always)]
-    pub(crate) fn occupied_at(&self, c: usize) -> Option<(&[u32; CULL_WORDS], &[u32])> {
+    pub(crate) fn occupied_at(&self, c: usize) -> Option<&[u32]> {
         if self.occupied[c / 64] & (1 << (c % 64)) == 0 {
             return None;
         }
-        let words = &self.words[self.offsets[c] as usize..self.offsets[c + 1] as usize];
-        let (cull, refs) = words.split_first_chunk::<CULL_WORDS>()?;
-        Some((cull, refs))
+        Some(&self.words[self.offsets[c] as usize..self.offsets[c + 1] as usize])
     }
 
     /// True if no cell holds a triangle.
@@ -197,8 +197,8 @@ pub(crate) fn cell_index(dims: [u32; 3], cell: [u32; 3]) -> usize {
 }
 
 /// The slab indices of cell `c` of a `dims` grid (the inverse of [`cell_index`]).
-pub(crate) fn cell_of(dims: [u32; 3], c: usize) -> [u32; 3] {
-    let (nx, ny) = (dims[0] as usize, dims[1] as usize);
+pub(crate) fn cell_of(dims: [u32; 3], c: u64) -> [u32; 3] {
+    let [nx, ny, _] = dims.map(u64::from);
     [c % nx, c / nx % ny, c / nx / ny].map(|i| i as u32)
 }
 
@@ -227,13 +227,13 @@ mod tests {
         let bounds = Aabb::new(Vec3::ZERO, Vec3::new(2.0, 2.0, 1.0));
         let dims = [2, 2, 1];
         let planes = grid_planes(&bounds, dims);
-        let boxes = triangle_boxes(&mesh, &[0, 1]);
-        let blocks = blocks(&boxes, &planes);
+        let boxes = triangle_boxes(&mesh);
+        let blocks = blocks(&[0, 1], &boxes, &planes);
         let cells = Cells::build(&planes, &[0, 1], &boxes, &blocks, 100).unwrap();
         let refs = |cell| {
             cells
                 .occupied_at(cell_index(dims, cell))
-                .map(|(_, refs)| refs)
+                .map(|words| &words[CULL_WORDS..])
         };
         assert_eq!(refs([0, 0, 0]), Some(&[0, 1 | SHARED][..]));
         assert_eq!(refs([1, 0, 0]), Some(&[1 | SHARED][..]));
@@ -258,11 +258,15 @@ mod tests {
         let mesh = Mesh::new(vertices, vec![[0, 1, 2], [3, 4, 5]]).unwrap();
         let bounds = Aabb::new(Vec3::ZERO, Vec3::new(2.0, 2.0, 1.0));
         let planes = grid_planes(&bounds, [2, 2, 1]);
-        let boxes = triangle_boxes(&mesh, &[0, 1]);
-        let cells = Cells::build(&planes, &[0, 1], &boxes, &blocks(&boxes, &planes), 100).unwrap();
+        let boxes = triangle_boxes(&mesh);
+        let blocks = blocks(&[0, 1], &boxes, &planes);
+        let cells = Cells::build(&planes, &[0, 1], &boxes, &blocks, 100).unwrap();
         let cull = |cell| {
             let c = cell_index([2, 2, 1], cell);
-            let words = cells.occupied_at(c).unwrap().0.map(f32::from_bits);
+            let words: Vec<f32> = cells.occupied_at(c).unwrap()[..CULL_WORDS]
+                .iter()
+                .map(|&w| f32::from_bits(w))
+                .collect();
             (Vec3::from_slice(&words[..3]), Vec3::from_slice(&words[3..]))
         };
         // Triangle 0's box [0.2, 1.9] x [0.1, 1.9] cut by each cell; triangle 1 in (0, 0).

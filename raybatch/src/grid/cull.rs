@@ -52,12 +52,18 @@ pub(crate) fn cull_words(
     [a, b, c, d, e, f]
 }
 
-/// True if the ray may meet the cull box stored in `words` within `[ray.tmin, tmax]`: the
-/// cell's triangles need testing.
+/// The references of a stored cell (its `words`: the cull box, then the references) that
+/// the ray must test: all of them if it may meet the cull box within `[ray.tmin, tmax]`, else
+/// `None` (nor if the words hold no cull box).
 #[inline(always)]
-pub(crate) fn may_hit(words: &[u32; CULL_WORDS], ray: &PreparedRay, tmax: f32) -> bool {
-    let f = |i: usize| f32::from_bits(words[i]);
+pub(crate) fn refs_to_test<'a>(
+    words: &'a [u32],
+    ray: &PreparedRay,
+    tmax: f32,
+) -> Option<&'a [u32]> {
+    let (cull, refs) = words.split_first_chunk::<CULL_WORDS>()?;
+    let f = |i: usize| f32::from_bits(cull[i]);
     let min = Vec3::new(f(0), f(1), f(2));
     let max = Vec3::new(f(3), f(4), f(5));
-    box_entry(min, max, ray, tmax) < f32::INFINITY
+    (box_entry(min, max, ray, tmax) < f32::INFINITY).then_some(refs)
 }

@@ -16,10 +16,9 @@ use crate::geom::{Aabb, PreparedRay, TriangleTest};
 use crate::hit::Visitor;
 use crate::mesh::Mesh;
 
-use super::cells::{
-    Block, TriangleBox, blocks, for_each_cell, grid_planes, reference, triangle_boxes,
-};
+use super::cells::{Block, TriangleBox, blocks, cell_of, for_each_cell, grid_planes, reference};
 use super::cull::{self, CULL_WORDS, cull_words};
+use super::mailbox::SHARED;
 use super::scratch::GridScratch;
 use super::sizing::{GridOptions, cap, cell_shape, resolution};
 use super::table::CellTable;
@@ -121,7 +120,7 @@ impl SpatialHash {
     /// ray misses.
     pub fn build(mesh: impl Into<Arc<Mesh>>, options: &GridOptions) -> Result<Self, BuildError> {
         let mesh = mesh.into();
-        let (live, bounds) = live_triangles(&mesh)?;
+        let (live, boxes, bounds) = live_triangles(&mesh)?;
         if live.is_empty() {
             return Ok(Self {
                 mesh,
@@ -137,10 +136,9 @@ impl SpatialHash {
         // (Each cell adds at most CULL_WORDS words to its references: all fit in `u32` offsets.)
         let max_words = u64::from(u32::MAX) / (CULL_WORDS as u64 + 1);
         let max_refs = (REFERENCES_PER_TRIANGLE * live.len() as u64).min(max_words);
-        let boxes = triangle_boxes(&mesh, &live);
         loop {
             let planes = grid_planes(&bounds, dims);
-            let blocks = blocks(&boxes, &planes);
+            let blocks = blocks(&live, &boxes, &planes);
             let needed: u64 = blocks.iter().map(super::cells::block_cells).sum();
             if needed <= max_refs || dims == [1; 3] {
                 let (table, words, cells) = fill(&planes, &live, &boxes, &blocks);
@@ -181,7 +179,7 @@ impl SpatialHash {
 
 /// The table, the word array (each non-empty cell's cull box, then its references) and the
 /// non-empty cells: every (cell, reference) pair sorted by cell, then reference, so that each
-/// non-empty cell's references are one run.
+/// non-empty cell's references are one run. `boxes` are all triangles' boxes, by id.
 fn fill(
     planes: &GridPlanes,
     live: &[u32],
@@ -189,12 +187,11 @@ fn fill(
     blocks: &[Block],
 ) -> (CellTable, Vec<u32>, Vec<[u32; 3]>) {
     let dims = planes.each_ref().map(|p| p.slabs());
-    // (cell, reference, index of the triangle in `live`)
-    let mut pairs: Vec<(u64, u32, u32)> = Vec::new();
-    for (k, (&id, block)) in live.iter().zip(blocks).enumerate() {
+    let mut pairs: Vec<(u64, u32)> = Vec::new();
+    for (&id, block) in live.iter().zip(blocks) {
         let r = reference(id, block);
         for_each_cell(block, |x, y, z| {
-            pairs.push((linear_index(planes, [x, y, z]), r, k as u32))
+            pairs.push((linear_index(planes, [x, y, z]), r))
         });
     }
     pairs.sort_unstable();
@@ -202,17 +199,12 @@ fn fill(
     let mut table = CellTable::with_capacity(cells);
     let mut words = Vec::with_capacity(pairs.len() + CULL_WORDS * cells);
     let mut stored = Vec::with_capacity(cells);
-    let [nx, ny, _] = dims.map(u64::from);
     for run in pairs.chunk_by(|a, b| a.0 == b.0) {
         let key = run[0].0;
-        let (x, yz) = (key % nx, key / nx);
-        let cell = [x, yz % ny, yz / ny].map(|c| c as u32);
+        let cell = cell_of(dims, key);
+        let triangle_box = |p: &(u64, u32)| boxes[(p.1 & !SHARED) as usize];
         table.insert(key, words.len() as u32, (CULL_WORDS + run.len()) as u32);
-        words.extend(cull_words(
-            planes,
-            cell,
-            run.iter().map(|p| boxes[p.2 as usize]),
-        ));
+        words.extend(cull_words(planes, cell, run.iter().map(triangle_box)));
         words.extend(run.iter().map(|p| p.1));
         stored.push(cell);
     }
@@ -243,9 +235,7 @@ impl Accel for SpatialHash {
             }
             let (first, count) = self.table.get(cell.index);
             let words = &self.words[first as usize..(first + count) as usize];
-            if let Some((cull, refs)) = words.split_first_chunk::<CULL_WORDS>()
-                && cull::may_hit(cull, ray, *tmax)
-            {
+            if let Some(refs) = cull::refs_to_test(words, ray, *tmax) {
                 test_cell::<K, V>(&self.mesh, refs, ray, id, mailbox, tmax, visitor);
             }
         });

@@ -9,7 +9,7 @@ use crate::hit::Visitor;
 use crate::mesh::Mesh;
 use crate::traverse::single::test_triangles;
 
-use super::cells::{Cells, blocks, grid_planes, triangle_boxes};
+use super::cells::{Cells, TriangleBox, blocks, grid_planes, triangle_boxes};
 use super::cull;
 use super::mailbox::{Mailbox, SHARED};
 use super::scratch::GridScratch;
@@ -36,7 +36,7 @@ impl UniformGrid {
     /// keep one bit for the mailbox).
     pub fn build(mesh: impl Into<Arc<Mesh>>, options: &GridOptions) -> Result<Self, BuildError> {
         let mesh = mesh.into();
-        let (live, bounds) = live_triangles(&mesh)?;
+        let (live, boxes, bounds) = live_triangles(&mesh)?;
         if live.is_empty() {
             let planes = grid_planes(&Aabb::new(bounds.min, bounds.min), [1; 3]);
             return Ok(Self {
@@ -48,10 +48,9 @@ impl UniformGrid {
         let shape = cell_shape(&mesh, &live, options);
         let mut dims = resolution(&bounds, live.len(), shape, options);
         let max_refs = REFERENCES_PER_TRIANGLE * live.len() as u64;
-        let boxes = triangle_boxes(&mesh, &live);
         loop {
             let planes = grid_planes(&bounds, dims);
-            let blocks = blocks(&boxes, &planes);
+            let blocks = blocks(&live, &boxes, &planes);
             match Cells::build(&planes, &live, &boxes, &blocks, max_refs) {
                 Ok(cells) => {
                     return Ok(Self {
@@ -87,9 +86,12 @@ fn cell_count(dims: [u32; 3]) -> u64 {
     dims.iter().map(|&d| u64::from(d)).product()
 }
 
-/// The ids of the non-degenerate triangles and the box around them (empty if none); fails if
-/// the ids do not leave the mailbox bit free.
-pub(crate) fn live_triangles(mesh: &Mesh) -> Result<(Vec<u32>, Aabb), BuildError> {
+/// The ids of the non-degenerate triangles, the box of every triangle (by id) and the box
+/// around the non-degenerate ones (empty if none); fails if the ids do not leave the mailbox
+/// bit free.
+pub(crate) fn live_triangles(
+    mesh: &Mesh,
+) -> Result<(Vec<u32>, Vec<TriangleBox>, Aabb), BuildError> {
     let max = SHARED as usize - 1;
     if mesh.triangle_count() > max {
         return Err(BuildError::TooLarge {
@@ -101,10 +103,12 @@ pub(crate) fn live_triangles(mesh: &Mesh) -> Result<(Vec<u32>, Aabb), BuildError
     let live: Vec<u32> = (0..mesh.triangle_count() as u32)
         .filter(|&id| !mesh.is_degenerate(id))
         .collect();
+    let boxes = triangle_boxes(mesh);
     let bounds = live.iter().fold(Aabb::EMPTY, |b, &id| {
-        b.union(Aabb::from_points(&mesh.triangle(id)))
+        let (min, max) = boxes[id as usize];
+        b.union(Aabb::new(min, max))
     });
-    Ok((live, bounds))
+    Ok((live, boxes, bounds))
 }
 
 /// Tests the triangles of one cell's references `refs` that the ray has not met yet; true if
@@ -149,9 +153,8 @@ impl Accel for UniformGrid {
         mailbox.next_ray();
         walk(&self.planes, ray, &mut tmax, |cell, tmax| {
             visitor.enter_node(id);
-            if let Some((cull, refs)) = self.cells.occupied_at(cell.index as usize)
-                && cull::may_hit(cull, ray, *tmax)
-            {
+            let words = self.cells.occupied_at(cell.index as usize);
+            if let Some(refs) = words.and_then(|w| cull::refs_to_test(w, ray, *tmax)) {
                 test_cell::<K, V>(&self.mesh, refs, ray, id, mailbox, tmax, visitor);
             }
         });

@@ -97,15 +97,13 @@ pub(crate) fn walk(
         if te > end {
             return;
         }
-        if w.lagging != 0 {
-            if te > w.lag_until {
-                // Every slab left behind is left before `te` (the usual case, unless two
-                // planes are crossed within a few ulps of each other).
-                w.back = w.front;
-                w.lagging = 0;
-            } else {
-                w.leave_before(te);
-            }
+        if te > w.lag_until {
+            // Every slab left behind is left before `te` (the usual case, unless two planes
+            // are crossed within a few ulps of each other; nothing to do if none lags).
+            w.back = w.front;
+            w.lagging = 0;
+        } else {
+            w.leave_before(te);
         }
         w.enter_next(a, te);
         entered = a;
@@ -118,7 +116,6 @@ pub(crate) fn walk(
 /// leaves `s` and enters the next. Slabs from `back` to `front` (in the ray's order) are
 /// active.
 struct Walk<'a> {
-    planes: &'a GridPlanes,
     at: [&'a [f32]; 3],
     origin: [f32; 3],
     inv: [f32; 3],
@@ -130,10 +127,11 @@ struct Walk<'a> {
     last: [u32; 3],
     back: [u32; 3],
     front: [u32; 3],
-    /// The linear index of the cell of the `front` slabs, and how it changes when `front`
-    /// moves by `step` on each axis (wrapping: a negative change is added as its two's
-    /// complement).
+    /// The linear index of the cell of the `front` slabs ([`linear_index`]), what one slab
+    /// along each axis adds to it, and how it changes when `front` moves by `step` (wrapping:
+    /// a negative change is added as its two's complement).
     index: u64,
+    stride: [u64; 3],
     index_step: [u64; 3],
     /// Entry distance of the slab after `front` (`+inf` if none, or if the ray is parallel).
     next_enter: [f32; 3],
@@ -146,8 +144,10 @@ struct Walk<'a> {
     /// Per axis, the exit distance of the slab before `front` (`+inf` on a parallel axis that
     /// keeps two slabs); only read for lagging axes.
     lag_end: [f32; 3],
-    /// The largest `lag_end` of the lagging axes (anything if none lags): once a slab is
-    /// entered beyond it, no axis keeps more than its front slab.
+    /// The largest `lag_end` of the lagging axes: once a slab is entered beyond it, no axis
+    /// keeps more than its front slab. When none lags, no more than the next entry distance
+    /// (`-inf` at the start; after the lags are dropped at `te`, the old value, below `te`),
+    /// so that the next step's `lag_end` takes its place.
     lag_until: f32,
     /// Where the ray leaves the grid (capped to `f32::MAX`: hits have finite `t`, as in the
     /// box test, so `+inf` entries end the walk).
@@ -160,7 +160,6 @@ impl<'a> Walk<'a> {
     #[inline(always)]
     fn start(planes: &'a GridPlanes, ray: &PreparedRay, tmax: f32) -> Option<Self> {
         let mut w = Walk {
-            planes,
             at: [0, 1, 2].map(|i| planes[i].planes()),
             origin: ray.origin.to_array(),
             inv: ray.inv_dir.to_array(),
@@ -170,12 +169,13 @@ impl<'a> Walk<'a> {
             back: [0; 3],
             front: [0; 3],
             index: 0,
+            stride: [0; 3],
             index_step: [0; 3],
             next_enter: [f32::INFINITY; 3],
             next_leave: [f32::INFINITY; 3],
             lagging: 0,
             lag_end: [f32::INFINITY; 3],
-            lag_until: f32::INFINITY,
+            lag_until: f32::NEG_INFINITY,
             far: f32::MAX,
         };
         let mut t0 = ray.tmin;
@@ -188,6 +188,7 @@ impl<'a> Walk<'a> {
                 (w.back[i], w.front[i]) = axis.holding(w.origin[i])?;
                 if w.back[i] != w.front[i] {
                     w.lagging |= 1 << i;
+                    w.lag_until = f32::INFINITY;
                 }
                 continue;
             }
@@ -216,18 +217,24 @@ impl<'a> Walk<'a> {
                 w.place(i, axis, ray.dir[i], t0);
             }
         }
-        w.index = linear_index(planes, w.front);
         let [nx, ny] = [0, 1].map(|a| u64::from(planes[a].slabs()));
-        let stride = [1, nx, nx * ny];
+        w.stride = [1, nx, nx * ny];
+        w.index = w.index_of(w.front);
         w.index_step = [0, 1, 2].map(|i| {
             if w.step[i] == 1 {
-                stride[i]
+                w.stride[i]
             } else {
-                stride[i].wrapping_neg()
+                w.stride[i].wrapping_neg()
             }
         });
-        w.planes = planes;
         Some(w)
+    }
+
+    /// The linear index of the cell of slabs `slabs` ([`linear_index`]).
+    #[inline(always)]
+    fn index_of(&self, slabs: [u32; 3]) -> u64 {
+        let [x, y, z] = slabs.map(u64::from);
+        x * self.stride[0] + y * self.stride[1] + z * self.stride[2]
     }
 
     /// Entry distance of slab `s` on axis `i` (the box test's `enter`).
@@ -276,7 +283,6 @@ impl<'a> Walk<'a> {
             } else {
                 enter_next
             };
-            self.next_leave[i] = leave_s;
             return;
         }
         self.place_near_a_plane(i, planes, s, t0);
@@ -310,9 +316,11 @@ impl<'a> Walk<'a> {
         self.next_enter[i] = self.enter_after_front(i);
         self.next_leave[i] = self.leave(i, self.back[i]);
         if self.back[i] != self.front[i] {
-            // (`lag_until` stays +inf: the next step takes the exact path and recomputes it.)
             self.lagging |= 1 << i;
             self.lag_end[i] = self.leave(i, self.front[i].wrapping_sub(self.step[i]));
+            if self.lag_end[i] > self.lag_until {
+                self.lag_until = self.lag_end[i];
+            }
         }
     }
 
@@ -367,7 +375,7 @@ impl<'a> Walk<'a> {
         }
         self.lagging |= 1 << a;
         self.lag_end[a] = left;
-        if self.lagging == 1 << a || left > self.lag_until {
+        if left > self.lag_until {
             self.lag_until = left;
         }
         self.front[a] = self.front[a].wrapping_add(self.step[a]);
@@ -408,7 +416,7 @@ impl<'a> Walk<'a> {
             for y in y0..=y1 {
                 for x in x0..=x1 {
                     let slabs = [x, y, z];
-                    let index = linear_index(self.planes, slabs);
+                    let index = self.index_of(slabs);
                     visit(Cell { slabs, index }, tmax);
                     if *tmax == RAY_DONE {
                         return;

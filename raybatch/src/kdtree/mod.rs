@@ -45,10 +45,13 @@ impl KdTree {
     /// misses; errors if the tree needs more than [`MAX_INDEX`] nodes or references.
     pub fn build(mesh: impl Into<Arc<Mesh>>, max_leaf_size: u32) -> Result<Self, BuildError> {
         let mesh = mesh.into();
-        let (live, bounds) = live_triangles(&mesh)?;
+        let (live, triangle_boxes, bounds) = live_triangles(&mesh)?;
         let boxes: Vec<(u32, Aabb)> = live
             .iter()
-            .map(|&id| (id, Aabb::from_points(&mesh.triangle(id))))
+            .map(|&id| {
+                let (min, max) = triangle_boxes[id as usize];
+                (id, Aabb::new(min, max))
+            })
             .collect();
         let built = build::build(&boxes, bounds, max_leaf_size as usize).map_err(|e| {
             BuildError::TooLarge {

@@ -25,21 +25,13 @@ use crate::hit::Visitor;
 #[cfg(target_arch = "x86_64")]
 use crate::x86::Avx2;
 
-/// [`trace_stream_in`] as a [`Loop`], to run in the AVX2 copy.
+/// The stream walk's arguments, as a [`Loop`] (the walk is its `run`), to run in the AVX2 copy.
 struct Stream<'a, 's, B: Bvh, K, V> {
     tree: &'a B,
     stream: &'a mut RayStream<'s>,
     scratch: &'a mut BvhScratch<B::Cache, B::NodeBox>,
     visitor: &'a mut V,
     kernel: std::marker::PhantomData<K>,
-}
-
-impl<B: Bvh, K: TriangleTest, V: Visitor> Loop for Stream<'_, '_, B, K, V> {
-    type Output = ();
-    #[inline(always)]
-    fn run(self) {
-        trace_stream_in::<B, K, V>(self.tree, self.stream, self.scratch, self.visitor)
-    }
 }
 
 /// Runs every ray of `stream` through the tree, in the AVX2 copy where the CPU has AVX2 and
@@ -64,81 +56,83 @@ pub(crate) fn trace_stream<B, K, V>(
     avx2::run(task, B::AVX2_TRAVERSAL)
 }
 
-/// Runs every ray of `stream` through the tree.
-#[inline(always)]
-fn trace_stream_in<B, K, V>(
-    tree: &B,
-    stream: &mut RayStream<'_>,
-    scratch: &mut BvhScratch<B::Cache, B::NodeBox>,
-    visitor: &mut V,
-) where
-    B: Bvh,
-    K: TriangleTest,
-    V: Visitor,
-{
-    if tree.is_empty() || stream.is_empty() {
-        return;
-    }
-    let single_ray_below = stream.options().single_ray_below;
-    #[cfg(target_arch = "x86_64")]
-    let packet_from = stream.options().packet_from;
-    let filter = Filter::detect();
-    let mut pending = std::mem::take(&mut scratch.stream_stack);
-    pending.clear();
-    pending.push((0, stream.len() as u32, tree.root_bounds(&mut scratch.cache)));
-    // The root box is the structure's cull box: a culled stream's rays all touch it.
-    let root_tested = stream.in_cull_bounds();
-    while let Some((index, count, bounds)) = pending.pop() {
-        let active = if index == 0 && root_tested {
-            count as usize
-        } else {
-            stream.partition(count as usize, &bounds)
-        };
-        if active == 0 {
-            continue;
-        }
-        if active < single_ray_below {
-            let start = (index, B::keep(&bounds));
-            #[cfg(target_arch = "x86_64")]
-            if let Filter::Eight(avx2) = filter
-                && B::PACKET_WALK
-                && active >= packet_from
-                && active <= 8
-            {
-                let done = super::packet::finish::<B, K, V>(
-                    avx2, tree, stream, active, start, scratch, visitor,
-                );
-                if done {
-                    continue;
-                }
-            }
-            finish_one_by_one::<B, K, V>(tree, stream, active, start, scratch, visitor);
-            continue;
-        }
-        let node = tree.node(index);
-        let slots = node.first..node.first + node.count;
-        test_leaf::<K, V>(
-            filter,
+impl<B: Bvh, K: TriangleTest, V: Visitor> Loop for Stream<'_, '_, B, K, V> {
+    type Output = ();
+
+    /// Runs every ray of the stream through the tree.
+    #[inline(always)]
+    fn run(self) {
+        let Self {
+            tree,
             stream,
-            active,
-            slots,
-            |slot| tree.triangle(slot),
+            scratch,
             visitor,
-        );
-        if node.has_children() {
-            let [a, b] = node.children;
-            let kept = B::keep(&bounds);
-            let [ab, bb] = tree.child_bounds(&node, &kept, &mut scratch.cache);
-            let (near, far) = if second_child_first(node.order, stream.octant_mask()) {
-                ((b, bb), (a, ab))
-            } else {
-                ((a, ab), (b, bb))
-            };
-            pending.push((far.0, active as u32, far.1));
-            pending.push((near.0, active as u32, near.1));
+            ..
+        } = self;
+        if tree.is_empty() || stream.is_empty() {
+            return;
         }
+        let single_ray_below = stream.options().single_ray_below;
+        #[cfg(target_arch = "x86_64")]
+        let packet_from = stream.options().packet_from;
+        let filter = Filter::detect();
+        let mut pending = std::mem::take(&mut scratch.stream_stack);
+        pending.clear();
+        pending.push((0, stream.len() as u32, tree.root_bounds(&mut scratch.cache)));
+        // The root box is the structure's cull box: a culled stream's rays all touch it.
+        let root_tested = stream.in_cull_bounds();
+        while let Some((index, count, bounds)) = pending.pop() {
+            let active = if index == 0 && root_tested {
+                count as usize
+            } else {
+                stream.partition(count as usize, &bounds)
+            };
+            if active == 0 {
+                continue;
+            }
+            if active < single_ray_below {
+                let start = (index, B::keep(&bounds));
+                #[cfg(target_arch = "x86_64")]
+                if let Filter::Eight(avx2) = filter
+                    && B::PACKET_WALK
+                    && active >= packet_from
+                    && active <= 8
+                {
+                    let done = super::packet::finish::<B, K, V>(
+                        avx2, tree, stream, active, start, scratch, visitor,
+                    );
+                    if done {
+                        continue;
+                    }
+                }
+                finish_one_by_one::<B, K, V>(tree, stream, active, start, scratch, visitor);
+                continue;
+            }
+            let node = tree.node(index);
+            let slots = node.first..node.first + node.count;
+            test_leaf::<K, V>(
+                filter,
+                stream,
+                active,
+                slots,
+                |slot| tree.triangle(slot),
+                visitor,
+            );
+            if node.has_children() {
+                let [a, b] = node.children;
+                let kept = B::keep(&bounds);
+                let [ab, bb] = tree.child_bounds(&node, &kept, &mut scratch.cache);
+                let (near, far) = if second_child_first(node.order, stream.octant_mask()) {
+                    ((b, bb), (a, ab))
+                } else {
+                    ((a, ab), (b, bb))
+                };
+                pending.push((far.0, active as u32, far.1));
+                pending.push((near.0, active as u32, near.1));
+            }
+        }
+        scratch.stream_stack = pending;
     }
-    scratch.stream_stack = pending;
 }
 
 /// Most triangles a leaf pass keeps at once; larger triangle ranges go in several passes.

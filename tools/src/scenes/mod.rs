@@ -111,6 +111,23 @@ pub fn named(name: &str) -> Option<Scene> {
     })
 }
 
+/// The scene an example's first argument names: the bunny if there is none, an OBJ file if it
+/// ends in `.obj`, else a built-in scene ([`named`]). Panics with the choices otherwise (for
+/// examples, whose arguments a person types).
+pub fn from_arg(arg: Option<&str>) -> Scene {
+    match arg {
+        None => bunny(),
+        Some(path) if path.ends_with(".obj") => Scene {
+            name: "mesh",
+            mesh: raybatch::Mesh::load_obj(path).expect("a readable OBJ file"),
+            kind: SceneKind::Object,
+        },
+        Some(name) => named(name).unwrap_or_else(|| {
+            panic!("unknown scene {name}: bunny, terrain, city, sparse or a .obj file")
+        }),
+    }
+}
+
 /// The scenes `raybatch bench` runs: the bunny, the 1M-triangle terrain and the city.
 pub fn builtin() -> Vec<Scene> {
     vec![
