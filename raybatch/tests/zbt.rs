@@ -6,7 +6,7 @@
 mod common;
 
 use common::meshes::{bunny, icosphere_all_duplicated, icosphere_with_duplicates, tri_mesh};
-use common::oracles::{all_bits, opt_bits};
+use common::oracles::{HitBits, all_bits, opt_bits};
 use common::rays::hard_rays;
 use glam::Vec3;
 use raybatch::query::brute_force;
@@ -47,44 +47,70 @@ fn zbt_options() -> Vec<ZbtOptions> {
     all
 }
 
-/// Closest, any and all hits of `tree`, per ray and batched (two batch shapes), equal bit for
-/// bit to brute force over `mesh` (the tree's own triangle order).
+/// Closest, any and all hits of `tree`, per ray and batched, equal bit for bit to brute force
+/// over `mesh` (the tree's own triangle order). The batch shapes: the defaults (a batch this
+/// small takes the single-ray path); the stream all the way down; the stream with the packet
+/// walk finishing lists of 2-7 rays (the default engine); and lists below 1,000 rays finished
+/// as packets from 5 rays up to 8 and one ray at a time otherwise.
 fn check_against_brute_force<A: Accel>(name: &str, tree: &A, mesh: &Mesh, rays: &[Ray]) {
-    let mut closest = vec![None; rays.len()];
-    let mut occluded = vec![false; rays.len()];
+    let mut closest = Vec::with_capacity(rays.len());
+    let mut occluded = Vec::with_capacity(rays.len());
+    let mut all = Vec::with_capacity(rays.len());
+    for ray in rays {
+        closest.push(opt_bits(brute_force::cast_ray(
+            mesh,
+            ray,
+            Kernel::Watertight,
+        )));
+        occluded.push(brute_force::occluded(mesh, ray, Kernel::Watertight));
+        all.push(sorted(all_bits(&brute_force::all_hits(
+            mesh,
+            ray,
+            Kernel::Watertight,
+        ))));
+    }
+    for (i, ray) in rays.iter().enumerate() {
+        assert_eq!(opt_bits(tree.cast_ray(ray)), closest[i], "{name} {ray:?}");
+        assert_eq!(tree.occluded(ray), occluded[i], "{name} {ray:?}");
+        assert_eq!(
+            sorted(all_bits(&tree.all_hits(ray))),
+            all[i],
+            "{name} {ray:?}"
+        );
+    }
+    let small_batches = BatchOptions::default().with_min_batch(1);
     for options in [
         BatchOptions::default(),
-        BatchOptions::default()
-            .with_parallel(false)
-            .with_min_batch(1)
-            .with_single_ray_below(1),
+        small_batches.with_parallel(false).with_single_ray_below(1),
+        small_batches,
+        small_batches
+            .with_single_ray_below(1000)
+            .with_packet_from(5),
     ] {
-        tree.cast_rays_with(rays, &mut closest, &options).unwrap();
-        tree.occluded_batch_with(rays, &mut occluded, &options)
+        let mut batch_closest = vec![None; rays.len()];
+        let mut batch_occluded = vec![false; rays.len()];
+        tree.cast_rays_with(rays, &mut batch_closest, &options)
             .unwrap();
+        tree.occluded_batch_with(rays, &mut batch_occluded, &options)
+            .unwrap();
+        let batch_all = std::sync::Mutex::new(vec![Vec::new(); rays.len()]);
+        tree.for_each_hit_batch_with(rays, &options, |i, hit| {
+            batch_all.lock().unwrap()[i].push(hit)
+        });
+        let batch_all = batch_all.into_inner().unwrap();
         for (i, ray) in rays.iter().enumerate() {
-            let expected = brute_force::cast_ray(mesh, ray, Kernel::Watertight);
-            assert_eq!(
-                opt_bits(tree.cast_ray(ray)),
-                opt_bits(expected),
-                "{name} {ray:?}"
-            );
-            assert_eq!(
-                opt_bits(closest[i]),
-                opt_bits(expected),
-                "{name} batched {ray:?}"
-            );
-            let occ = brute_force::occluded(mesh, ray, Kernel::Watertight);
-            assert_eq!(tree.occluded(ray), occ, "{name} {ray:?}");
-            assert_eq!(occluded[i], occ, "{name} batched {ray:?}");
-            let all = brute_force::all_hits(mesh, ray, Kernel::Watertight);
-            assert_eq!(
-                all_bits(&tree.all_hits(ray)),
-                all_bits(&all),
-                "{name} {ray:?}"
-            );
+            let what = format!("{name} batched {options:?} {ray:?}");
+            assert_eq!(opt_bits(batch_closest[i]), closest[i], "{what}");
+            assert_eq!(batch_occluded[i], occluded[i], "{what}");
+            assert_eq!(sorted(all_bits(&batch_all[i])), all[i], "{what}");
         }
     }
+}
+
+/// `hits` in one order (a batch reports a ray's hits in its visiting order).
+fn sorted(mut hits: Vec<HitBits>) -> Vec<HitBits> {
+    hits.sort_unstable();
+    hits
 }
 
 /// The permutation is one, the vertices are untouched, each triangle keeps its corner order,
