@@ -616,6 +616,53 @@ mod tests {
     }
 
     #[test]
+    fn crossings_a_few_ulps_apart_visit_the_touched_cells() {
+        // Rays through cell corners nudged by an ulp or two: two planes are crossed within
+        // the exit scaling of each other, where the lean single-cell loop must hand over to
+        // the general step (and a shortcut there loses the corner cells).
+        let mut rng = crate::test_support::TestRng::new(23);
+        let nudge = |x: f32, k: i32| f32::from_bits((x.to_bits() as i32 + k) as u32);
+        for _ in 0..600 {
+            let o = (rng.vec3(6.0) * 2.0).round() * 0.5 + Vec3::splat(2.0);
+            let o = Vec3::from_array(o.to_array().map(|c| {
+                let k = (rng.range(-3.0, 3.0)) as i32;
+                if c == 0.0 { c } else { nudge(c, k) }
+            }));
+            let d = (rng.vec3(2.0) * 2.0).round() * 0.5;
+            let ray = Ray::with_range(o, d, 0.0, rng.range(0.5, 8.0));
+            if ray.is_valid() {
+                assert_visits_touched(ray);
+            }
+        }
+    }
+
+    #[test]
+    fn an_entry_exactly_at_the_last_exit_keeps_the_slab_left_behind() {
+        // The ray crosses x = 1 at `t1`, then y = 1 at exactly `t1 * EXIT_SCALE`, the scaled
+        // exit of the x slab it just left: the cell of the old x slab and the new y slab is
+        // touched at that one `t` (the lean loop must hand over on `<=`, not `<`).
+        let mut exact = 0;
+        for t1 in [0.5f32, 0.25, 0.75, 0.375, 0.625] {
+            let t2 = t1 * EXIT_SCALE;
+            let oy = 1.0 - t2;
+            if 1.0 - oy != t2 {
+                continue;
+            }
+            exact += 1;
+            for (o, d) in [
+                (Vec3::new(1.0 - t1, oy, 0.5), Vec3::new(1.0, 1.0, 0.0)),
+                (Vec3::new(oy, 1.0 - t1, 2.5), Vec3::new(1.0, 1.0, 0.0)),
+                (Vec3::new(1.0 - t1, 0.5, oy), Vec3::new(1.0, 0.0, 1.0)),
+            ] {
+                let ray = Ray::new(o, d);
+                assert!(cells_of(&grid4(), &ray).len() > 7, "{ray:?}");
+                assert_visits_touched(ray);
+            }
+        }
+        assert!(exact >= 3, "only {exact} exact cases");
+    }
+
+    #[test]
     fn a_shrinking_range_stops_the_walk() {
         let planes = grid4();
         let ray = PreparedRay::new(&Ray::new(Vec3::new(-1.0, 0.5, 0.5), Vec3::X)).unwrap();
