@@ -160,6 +160,15 @@ impl SlabRay {
     /// [`box_entry`] of the box `[min, max]`.
     #[inline(always)]
     pub(crate) fn entry(&self, min: Vec3A, max: Vec3A, tmax: f32) -> f32 {
+        let (near, far) = self.range(min, max, tmax);
+        if near <= far { near } else { f32::INFINITY }
+    }
+
+    /// The slab test's range before the miss test: the largest entry distance (at least
+    /// `tmin`) and the smallest scaled exit distance (at most `tmax`, and `f32::MAX`), NaN
+    /// lanes left out. The ray may touch the box iff `near <= far`.
+    #[inline(always)]
+    pub(crate) fn range(&self, min: Vec3A, max: Vec3A, tmax: f32) -> (f32, f32) {
         let near_plane = Vec3A::select(self.negative, max, min);
         let far_plane = Vec3A::select(self.negative, min, max);
         let enter = (near_plane - self.origin) * self.inv_dir;
@@ -169,7 +178,7 @@ impl SlabRay {
         let hi = Vec3A::splat(tmax.min(f32::MAX));
         let near = Vec3A::select(enter.cmpgt(lo), enter, lo).max_element();
         let far = Vec3A::select(exit.cmplt(hi), exit, hi).min_element();
-        if near <= far { near } else { f32::INFINITY }
+        (near, far)
     }
 }
 

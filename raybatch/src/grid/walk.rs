@@ -34,7 +34,7 @@
 
 use glam::Vec3;
 
-use crate::geom::aabb::EXIT_SCALE;
+use crate::geom::aabb::{EXIT_SCALE, SlabRay};
 use crate::geom::{Aabb, PreparedRay};
 use crate::hit::RAY_DONE;
 
@@ -190,8 +190,18 @@ impl<'a> Walk<'a> {
     #[inline(always)]
     fn start(&mut self, planes: &GridPlanes, ray: &PreparedRay, tmax: f32) -> bool {
         let w = self;
-        let mut t0 = ray.tmin;
-        let mut far = tmax.min(f32::MAX);
+        // The grid's own slab test, three axes at once. On an axis the ray runs parallel to,
+        // the distances are `-inf` or NaN (left out) when the origin is within the planes and
+        // `+inf` entering when it is outside (a miss, as `holding` below finds too); on the
+        // others they are the very `enter` of the first slab and `leave` of the last.
+        let grid = bounds(planes);
+        let (t0, exit) = SlabRay::new(ray).range(grid.min.into(), grid.max.into(), f32::MAX);
+        w.far = exit;
+        // (Plain comparisons: `tmax` is never NaN.)
+        let far = if tmax < exit { tmax } else { exit };
+        if t0 > far {
+            return false;
+        }
         for (i, axis) in planes.iter().enumerate() {
             let n = axis.slabs();
             if w.inv[i].is_infinite() {
@@ -210,22 +220,7 @@ impl<'a> Walk<'a> {
             let forward = w.inv[i] >= 0.0;
             w.fwd[i] = u32::from(forward);
             w.step[i] = if forward { 1 } else { u32::MAX };
-            let first = if forward { 0 } else { n - 1 };
-            w.last[i] = n - 1 - first;
-            // (Plain comparisons: no distance here is NaN, see the module docs.)
-            let (enter, exit) = (w.enter(i, first), w.leave(i, w.last[i]));
-            if enter > t0 {
-                t0 = enter;
-            }
-            if exit < far {
-                far = exit;
-            }
-            if exit < w.far {
-                w.far = exit;
-            }
-        }
-        if t0 > far {
-            return false;
+            w.last[i] = if forward { n - 1 } else { 0 };
         }
         for (i, axis) in planes.iter().enumerate() {
             if !w.inv[i].is_infinite() {
