@@ -25,6 +25,12 @@
 //! `t` so far for a closest hit): a triangle hit at exactly the best `t`, with a lower id, has
 //! its `t* <= t`, so its cell is entered at or before the best `t` and is still visited.
 //!
+//! **The lean loop.** Almost every step leaves a single new cell: the slab left behind is
+//! gone before the next entry. `Walk::single_cells` walks those steps keeping only the
+//! front slabs, the index, the next entries and the last scaled exit; the first entry at or
+//! before that exit hands the walk back to the range bookkeeping, with the lag written out as
+//! it would have kept it, so both visit the same cells in the same order.
+//!
 //! **Robustness.** An axis the ray runs parallel to (`inv_dir` infinite, where `0 * inf` would
 //! be NaN) has no events: its active slabs are those holding the origin's coordinate (two
 //! when the origin lies on a plane, which is the box test's "grazing counts as touching").
