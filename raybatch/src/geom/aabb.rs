@@ -129,20 +129,57 @@ impl Aabb {
 /// NaN, so `max`/`min` are not used for the fold).
 #[inline(always)]
 pub fn box_entry(min: Vec3, max: Vec3, ray: &PreparedRay, tmax: f32) -> f32 {
-    let (min, max) = (Vec3A::from(min), Vec3A::from(max));
-    let (origin, inv_dir) = (Vec3A::from(ray.origin), Vec3A::from(ray.inv_dir));
-    // 1/+-0 = +-inf, so the sign of `inv_dir` is the sign bit of the direction.
-    let negative = inv_dir.cmplt(Vec3A::ZERO);
-    let near_plane = Vec3A::select(negative, max, min);
-    let far_plane = Vec3A::select(negative, min, max);
-    let enter = (near_plane - origin) * inv_dir;
-    let exit = (far_plane - origin) * inv_dir * EXIT_SCALE;
-    let lo = Vec3A::splat(ray.tmin);
-    // Hits have finite `t`, so an infinite entry (a parallel ray below a slab) is a miss.
-    let hi = Vec3A::splat(tmax.min(f32::MAX));
-    let near = Vec3A::select(enter.cmpgt(lo), enter, lo).max_element();
-    let far = Vec3A::select(exit.cmplt(hi), exit, hi).min_element();
-    if near <= far { near } else { f32::INFINITY }
+    SlabRay::new(ray).entry(Vec3A::from(min), Vec3A::from(max), tmax)
+}
+
+/// What [`box_entry`] needs of a ray, in vector registers: a walk that tests many boxes
+/// against one ray (the grids' cull boxes) loads and selects it once, not once per box.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct SlabRay {
+    origin: Vec3A,
+    inv_dir: Vec3A,
+    /// Lanes whose direction is negative: the near plane is the box's `max` there.
+    negative: glam::BVec3A,
+    tmin: f32,
+}
+
+impl SlabRay {
+    /// The ray's slab-test constants.
+    #[inline(always)]
+    pub(crate) fn new(ray: &PreparedRay) -> Self {
+        let inv_dir = Vec3A::from(ray.inv_dir);
+        Self {
+            origin: Vec3A::from(ray.origin),
+            inv_dir,
+            // 1/+-0 = +-inf, so the sign of `inv_dir` is the sign bit of the direction.
+            negative: inv_dir.cmplt(Vec3A::ZERO),
+            tmin: ray.tmin,
+        }
+    }
+
+    /// [`box_entry`] of the box `[min, max]`.
+    #[inline(always)]
+    pub(crate) fn entry(&self, min: Vec3A, max: Vec3A, tmax: f32) -> f32 {
+        let (near, far) = self.range(min, max, tmax);
+        if near <= far { near } else { f32::INFINITY }
+    }
+
+    /// The slab test's range before the miss test: the largest entry distance (at least
+    /// `tmin`) and the smallest scaled exit distance (at most `tmax`, and `f32::MAX`), NaN
+    /// lanes left out. The ray may touch the box iff `near <= far`.
+    #[inline(always)]
+    pub(crate) fn range(&self, min: Vec3A, max: Vec3A, tmax: f32) -> (f32, f32) {
+        let near_plane = Vec3A::select(self.negative, max, min);
+        let far_plane = Vec3A::select(self.negative, min, max);
+        let enter = (near_plane - self.origin) * self.inv_dir;
+        let exit = (far_plane - self.origin) * self.inv_dir * EXIT_SCALE;
+        let lo = Vec3A::splat(self.tmin);
+        // Hits have finite `t`, so an infinite entry (a parallel ray below a slab) is a miss.
+        let hi = Vec3A::splat(tmax.min(f32::MAX));
+        let near = Vec3A::select(enter.cmpgt(lo), enter, lo).max_element();
+        let far = Vec3A::select(exit.cmplt(hi), exit, hi).min_element();
+        (near, far)
+    }
 }
 
 #[cfg(test)]

@@ -22,10 +22,9 @@
 //! mailbox, so each is still tested in the cell where the test passes. None of this needs the
 //! intersections to be non-empty: the formulas hold plane by plane.
 
-use glam::Vec3;
+use glam::{Vec3, Vec3A};
 
-use crate::geom::PreparedRay;
-use crate::geom::aabb::box_entry;
+use crate::geom::aabb::SlabRay;
 
 use super::walk::GridPlanes;
 
@@ -53,17 +52,14 @@ pub(crate) fn cull_words(
 }
 
 /// The references of a stored cell (its `words`: the cull box, then the references) that
-/// the ray must test: all of them if it may meet the cull box within `[ray.tmin, tmax]`, else
-/// `None` (nor if the words hold no cull box).
+/// the ray (`slab`, its slab-test constants, made once per walk) must test: all of them if it
+/// may meet the cull box within `[tmin, tmax]`, else `None` (nor if the words hold no cull
+/// box).
 #[inline(always)]
-pub(crate) fn refs_to_test<'a>(
-    words: &'a [u32],
-    ray: &PreparedRay,
-    tmax: f32,
-) -> Option<&'a [u32]> {
+pub(crate) fn refs_to_test<'a>(words: &'a [u32], slab: &SlabRay, tmax: f32) -> Option<&'a [u32]> {
     let (cull, refs) = words.split_first_chunk::<CULL_WORDS>()?;
     let f = |i: usize| f32::from_bits(cull[i]);
-    let min = Vec3::new(f(0), f(1), f(2));
-    let max = Vec3::new(f(3), f(4), f(5));
-    (box_entry(min, max, ray, tmax) < f32::INFINITY).then_some(refs)
+    let min = Vec3A::new(f(0), f(1), f(2));
+    let max = Vec3A::new(f(3), f(4), f(5));
+    (slab.entry(min, max, tmax) < f32::INFINITY).then_some(refs)
 }

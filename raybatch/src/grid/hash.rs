@@ -12,6 +12,7 @@ use std::sync::Arc;
 
 use crate::accel::{Accel, Footprint, RayStream};
 use crate::bvh::BuildError;
+use crate::geom::aabb::SlabRay;
 use crate::geom::{Aabb, PreparedRay, TriangleTest};
 use crate::hit::Visitor;
 use crate::mesh::Mesh;
@@ -228,6 +229,7 @@ impl Accel for SpatialHash {
             return tmax;
         }
         mailbox.next_ray();
+        let slab = SlabRay::new(ray);
         walk(&self.planes, ray, &mut tmax, |cell, tmax| {
             visitor.enter_node(id);
             if !self.coarse.may_hold(cell.slabs) {
@@ -235,7 +237,7 @@ impl Accel for SpatialHash {
             }
             let (first, count) = self.table.get(cell.index);
             let words = &self.words[first as usize..(first + count) as usize];
-            if let Some(refs) = cull::refs_to_test(words, ray, *tmax) {
+            if let Some(refs) = cull::refs_to_test(words, &slab, *tmax) {
                 test_cell::<K, V>(&self.mesh, refs, ray, id, mailbox, tmax, visitor);
             }
         });

@@ -4,6 +4,7 @@ use std::sync::Arc;
 
 use crate::accel::{Accel, Footprint, RayStream};
 use crate::bvh::BuildError;
+use crate::geom::aabb::SlabRay;
 use crate::geom::{Aabb, PreparedRay, TriangleTest};
 use crate::hit::Visitor;
 use crate::mesh::Mesh;
@@ -151,10 +152,11 @@ impl Accel for UniformGrid {
             return tmax;
         }
         mailbox.next_ray();
+        let slab = SlabRay::new(ray);
         walk(&self.planes, ray, &mut tmax, |cell, tmax| {
             visitor.enter_node(id);
             let words = self.cells.occupied_at(cell.index as usize);
-            if let Some(refs) = words.and_then(|w| cull::refs_to_test(w, ray, *tmax)) {
+            if let Some(refs) = words.and_then(|w| cull::refs_to_test(w, &slab, *tmax)) {
                 test_cell::<K, V>(&self.mesh, refs, ray, id, mailbox, tmax, visitor);
             }
         });

@@ -25,6 +25,12 @@
 //! `t` so far for a closest hit): a triangle hit at exactly the best `t`, with a lower id, has
 //! its `t* <= t`, so its cell is entered at or before the best `t` and is still visited.
 //!
+//! **The lean loop.** Almost every step leaves a single new cell: the slab left behind is
+//! gone before the next entry. `Walk::single_cells` walks those steps keeping only the
+//! front slabs, the index, the next entries and the last scaled exit; the first entry at or
+//! before that exit hands the walk back to the range bookkeeping, with the lag written out as
+//! it would have kept it, so both visit the same cells in the same order.
+//!
 //! **Robustness.** An axis the ray runs parallel to (`inv_dir` infinite, where `0 * inf` would
 //! be NaN) has no events: its active slabs are those holding the origin's coordinate (two
 //! when the origin lies on a plane, which is the box test's "grazing counts as touching").
@@ -34,7 +40,7 @@
 
 use glam::Vec3;
 
-use crate::geom::aabb::EXIT_SCALE;
+use crate::geom::aabb::{EXIT_SCALE, SlabRay};
 use crate::geom::{Aabb, PreparedRay};
 use crate::hit::RAY_DONE;
 
@@ -79,22 +85,28 @@ pub(crate) fn walk(
     tmax: &mut f32,
     mut visit: impl FnMut(Cell, &mut f32),
 ) {
-    let Some(mut w) = Walk::start(planes, ray, *tmax) else {
+    // (Built in place and started, rather than returned as an `Option`: the state is a few
+    // hundred bytes, and moving it out of the option cost two copies per ray.)
+    let mut w = Walk::new(planes, ray);
+    if !w.start(planes, ray, *tmax) {
         return;
-    };
+    }
     // The axis whose slab was just entered: only the cells in that slab are new (3: none, at
     // the start, where every active cell is new).
     let mut entered = 3;
     loop {
-        // (A visitor that ends the ray sets `tmax` to RAY_DONE, -inf: the test below stops.)
-        w.visit_block(entered, tmax, &mut visit);
+        // (A visitor that ends the ray sets `tmax` to RAY_DONE, -inf: the steps stop.)
+        if w.lagging & !(1u32 << entered) == 0 {
+            // One new cell: the usual case, walked by the lean loop until it is not.
+            if !w.single_cells(entered, tmax, &mut visit) {
+                return;
+            }
+        } else {
+            w.visit_range(entered, tmax, &mut visit);
+        }
         let a = w.next_axis();
         let te = w.next_enter[a];
-        // Stops on +inf (no slab left), beyond the grid, beyond the best hit, or RAY_DONE
-        // (distances are never NaN: the axes that would give one have no events; `tmax` is
-        // never NaN either, so a plain comparison picks the nearer end).
-        let end = if *tmax < w.far { *tmax } else { w.far };
-        if te > end {
+        if te > w.end(*tmax) {
             return;
         }
         if te > w.lag_until {
@@ -155,11 +167,10 @@ struct Walk<'a> {
 }
 
 impl<'a> Walk<'a> {
-    /// The walk's state at the grid's entry distance, or `None` if the ray misses the grid in
-    /// `[ray.tmin, tmax]`.
+    /// The state before [`Walk::start`]: every axis forward, one slab, nothing lagging.
     #[inline(always)]
-    fn start(planes: &'a GridPlanes, ray: &PreparedRay, tmax: f32) -> Option<Self> {
-        let mut w = Walk {
+    fn new(planes: &'a GridPlanes, ray: &PreparedRay) -> Self {
+        Walk {
             at: [0, 1, 2].map(|i| planes[i].planes()),
             origin: ray.origin.to_array(),
             inv: ray.inv_dir.to_array(),
@@ -177,15 +188,35 @@ impl<'a> Walk<'a> {
             lag_end: [f32::INFINITY; 3],
             lag_until: f32::NEG_INFINITY,
             far: f32::MAX,
-        };
-        let mut t0 = ray.tmin;
-        let mut far = tmax.min(f32::MAX);
+        }
+    }
+
+    /// Sets the state to the grid's entry distance; false if the ray misses the grid in
+    /// `[ray.tmin, tmax]`.
+    #[inline(always)]
+    fn start(&mut self, planes: &GridPlanes, ray: &PreparedRay, tmax: f32) -> bool {
+        let w = self;
+        // The grid's own slab test, three axes at once. On an axis the ray runs parallel to,
+        // the distances are `-inf` or NaN (left out) when the origin is within the planes and
+        // `+inf` entering when it is outside (a miss, as `holding` below finds too); on the
+        // others they are the very `enter` of the first slab and `leave` of the last.
+        let grid = bounds(planes);
+        let (t0, exit) = SlabRay::new(ray).range(grid.min.into(), grid.max.into(), f32::MAX);
+        w.far = exit;
+        // (Plain comparisons: `tmax` is never NaN.)
+        let far = if tmax < exit { tmax } else { exit };
+        if t0 > far {
+            return false;
+        }
         for (i, axis) in planes.iter().enumerate() {
             let n = axis.slabs();
             if w.inv[i].is_infinite() {
                 // Parallel: the slabs holding the origin stay active for the whole ray (two
                 // if it lies on a plane: they lag with a leave distance of +inf).
-                (w.back[i], w.front[i]) = axis.holding(w.origin[i])?;
+                let Some(holding) = axis.holding(w.origin[i]) else {
+                    return false;
+                };
+                (w.back[i], w.front[i]) = holding;
                 if w.back[i] != w.front[i] {
                     w.lagging |= 1 << i;
                     w.lag_until = f32::INFINITY;
@@ -195,22 +226,7 @@ impl<'a> Walk<'a> {
             let forward = w.inv[i] >= 0.0;
             w.fwd[i] = u32::from(forward);
             w.step[i] = if forward { 1 } else { u32::MAX };
-            let first = if forward { 0 } else { n - 1 };
-            w.last[i] = n - 1 - first;
-            // (Plain comparisons: no distance here is NaN, see the module docs.)
-            let (enter, exit) = (w.enter(i, first), w.leave(i, w.last[i]));
-            if enter > t0 {
-                t0 = enter;
-            }
-            if exit < far {
-                far = exit;
-            }
-            if exit < w.far {
-                w.far = exit;
-            }
-        }
-        if t0 > far {
-            return None;
+            w.last[i] = if forward { n - 1 } else { 0 };
         }
         for (i, axis) in planes.iter().enumerate() {
             if !w.inv[i].is_infinite() {
@@ -227,7 +243,7 @@ impl<'a> Walk<'a> {
                 w.stride[i].wrapping_neg()
             }
         });
-        Some(w)
+        true
     }
 
     /// The linear index of the cell of slabs `slabs` ([`linear_index`]).
@@ -378,29 +394,80 @@ impl<'a> Walk<'a> {
         if left > self.lag_until {
             self.lag_until = left;
         }
+        self.advance(a);
+    }
+
+    /// Moves axis `a`'s front slab one step on, with the cell index and the next entry.
+    #[inline(always)]
+    fn advance(&mut self, a: usize) {
         self.front[a] = self.front[a].wrapping_add(self.step[a]);
         self.index = self.index.wrapping_add(self.index_step[a]);
         self.next_enter[a] = self.enter_after_front(a);
     }
 
-    /// Visits the cells of the active block; when `entered` names an axis (`< 3`), only those
-    /// in the slab just entered on it (the others were visited before). Stops early if the
-    /// visitor ends the ray.
+    /// Where the walk stops: the grid's far end or the visitor's range end, whichever is
+    /// nearer (`tmax` is never NaN, so a plain comparison picks it; RAY_DONE, `-inf`, stops).
     #[inline(always)]
-    fn visit_block(&self, entered: usize, tmax: &mut f32, visit: &mut impl FnMut(Cell, &mut f32)) {
-        // Almost always one cell: no axis but the one just entered has two active slabs.
-        let others = self.lagging & !(1u32 << entered);
-        if others == 0 {
+    fn end(&self, tmax: f32) -> f32 {
+        if tmax < self.far { tmax } else { self.far }
+    }
+
+    /// The walk while a single cell is new at each step: no axis but `entered` (the one just
+    /// stepped on, 3 if none) keeps more than its front slab, and that one only until
+    /// `lag_until`, its left slab's exit distance. Then each step visits the front cell, and
+    /// the next step is an entry strictly beyond `lag_until`: the slab left behind is gone by
+    /// then, so the general step would drop it (`back = front`) and keep only the new lag.
+    /// This loop keeps `front`, `index`, `next_enter` and `lag_until` and nothing else; once
+    /// the next entry comes at or before `lag_until` (two planes within a few ulps), it writes
+    /// the lag out as the general step would have ([`Walk::lag_behind`]) and returns true for
+    /// the general step to take over. False if the walk is over.
+    #[inline(always)]
+    fn single_cells(
+        &mut self,
+        mut entered: usize,
+        tmax: &mut f32,
+        visit: &mut impl FnMut(Cell, &mut f32),
+    ) -> bool {
+        // Until this loop steps, the lag state is the general walk's own, still valid.
+        let mut stepped = false;
+        loop {
             let cell = Cell {
                 slabs: self.front,
                 index: self.index,
             };
-            return visit(cell, tmax);
+            visit(cell, tmax);
+            let a = self.next_axis();
+            let te = self.next_enter[a];
+            if te > self.end(*tmax) {
+                return false;
+            }
+            if te <= self.lag_until {
+                if stepped {
+                    self.lag_behind(entered);
+                }
+                return true;
+            }
+            self.lag_until = te * EXIT_SCALE;
+            self.advance(a);
+            entered = a;
+            stepped = true;
         }
-        self.visit_range(entered, tmax, visit)
     }
 
-    /// [`Walk::visit_block`] when an axis other than `entered` has several active slabs.
+    /// The lag state after a step on axis `a` from a single active cell, the left slab
+    /// active until `lag_until` ([`Walk::single_cells`] keeps no more than that).
+    #[cold]
+    fn lag_behind(&mut self, a: usize) {
+        self.back = self.front;
+        self.back[a] = self.front[a].wrapping_sub(self.step[a]);
+        self.next_leave[a] = self.lag_until;
+        self.lag_end[a] = self.lag_until;
+        self.lagging = 1 << a;
+    }
+
+    /// Visits the cells of the active block when an axis other than `entered` has several
+    /// active slabs: only those in the slab just entered on `entered` (if `< 3`; all of them
+    /// at the start). Stops early if the visitor ends the ray.
     #[inline(never)]
     fn visit_range(&self, entered: usize, tmax: &mut f32, visit: &mut impl FnMut(Cell, &mut f32)) {
         let range = |i: usize| {
@@ -547,6 +614,53 @@ mod tests {
                 assert_visits_touched(ray);
             }
         }
+    }
+
+    #[test]
+    fn crossings_a_few_ulps_apart_visit_the_touched_cells() {
+        // Rays through cell corners nudged by an ulp or two: two planes are crossed within
+        // the exit scaling of each other, where the lean single-cell loop must hand over to
+        // the general step (and a shortcut there loses the corner cells).
+        let mut rng = crate::test_support::TestRng::new(23);
+        let nudge = |x: f32, k: i32| f32::from_bits((x.to_bits() as i32 + k) as u32);
+        for _ in 0..600 {
+            let o = (rng.vec3(6.0) * 2.0).round() * 0.5 + Vec3::splat(2.0);
+            let o = Vec3::from_array(o.to_array().map(|c| {
+                let k = (rng.range(-3.0, 3.0)) as i32;
+                if c == 0.0 { c } else { nudge(c, k) }
+            }));
+            let d = (rng.vec3(2.0) * 2.0).round() * 0.5;
+            let ray = Ray::with_range(o, d, 0.0, rng.range(0.5, 8.0));
+            if ray.is_valid() {
+                assert_visits_touched(ray);
+            }
+        }
+    }
+
+    #[test]
+    fn an_entry_exactly_at_the_last_exit_keeps_the_slab_left_behind() {
+        // The ray crosses x = 1 at `t1`, then y = 1 at exactly `t1 * EXIT_SCALE`, the scaled
+        // exit of the x slab it just left: the cell of the old x slab and the new y slab is
+        // touched at that one `t` (the lean loop must hand over on `<=`, not `<`).
+        let mut exact = 0;
+        for t1 in [0.5f32, 0.25, 0.75, 0.375, 0.625] {
+            let t2 = t1 * EXIT_SCALE;
+            let oy = 1.0 - t2;
+            if 1.0 - oy != t2 {
+                continue;
+            }
+            exact += 1;
+            for (o, d) in [
+                (Vec3::new(1.0 - t1, oy, 0.5), Vec3::new(1.0, 1.0, 0.0)),
+                (Vec3::new(oy, 1.0 - t1, 2.5), Vec3::new(1.0, 1.0, 0.0)),
+                (Vec3::new(1.0 - t1, 0.5, oy), Vec3::new(1.0, 0.0, 1.0)),
+            ] {
+                let ray = Ray::new(o, d);
+                assert!(cells_of(&grid4(), &ray).len() > 7, "{ray:?}");
+                assert_visits_touched(ray);
+            }
+        }
+        assert!(exact >= 3, "only {exact} exact cases");
     }
 
     #[test]
