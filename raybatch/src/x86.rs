@@ -1,9 +1,11 @@
 //! x86-64 SIMD pieces every layer's hand-written AVX2 shares: the [`Avx2`] token that proves
-//! the CPU has AVX2, and the 8x8 transpose that turns eight 32-byte records into eight
-//! columns (ray preparation, the stream split, the eight-ray sign filter).
+//! the CPU has AVX2, the 8x8 transpose that turns eight 32-byte records into eight
+//! columns (ray preparation, the stream split, the eight-ray sign filter), and the unaligned
+//! loads and stores of eight lanes the eight-ray tests read their columns with.
 
 use std::arch::x86_64::{
-    __m256, _mm256_permute2f128_ps, _mm256_shuffle_ps, _mm256_unpackhi_ps, _mm256_unpacklo_ps,
+    __m256, _mm256_loadu_ps, _mm256_permute2f128_ps, _mm256_shuffle_ps, _mm256_storeu_ps,
+    _mm256_unpackhi_ps, _mm256_unpacklo_ps,
 };
 
 /// Proof that the CPU has AVX2: only [`Avx2::detect`] makes one, so the safe functions that take
@@ -48,4 +50,37 @@ pub(crate) fn transpose(rows: [__m256; 8]) -> [__m256; 8] {
         high(u2, u6),
         high(u3, u7),
     ]
+}
+
+/// Stores eight `f32` (any alignment).
+///
+/// # Safety
+/// The CPU must support AVX.
+#[inline]
+#[target_feature(enable = "avx")]
+pub(crate) unsafe fn store(out: &mut [f32; 8], v: __m256) {
+    // SAFETY: `out` is 32 writable bytes.
+    unsafe { _mm256_storeu_ps(out.as_mut_ptr(), v) }
+}
+
+/// Loads eight `f32` stored as their bits (a column of the batch's lanes; any alignment).
+///
+/// # Safety
+/// The CPU must support AVX.
+#[inline]
+#[target_feature(enable = "avx")]
+pub(crate) unsafe fn load_bits(v: &[u32; 8]) -> __m256 {
+    // SAFETY: `v` is 32 readable bytes.
+    unsafe { _mm256_loadu_ps(v.as_ptr().cast::<f32>()) }
+}
+
+/// Loads eight `f32` (any alignment).
+///
+/// # Safety
+/// The CPU must support AVX.
+#[inline]
+#[target_feature(enable = "avx")]
+pub(crate) unsafe fn load(v: &[f32; 8]) -> __m256 {
+    // SAFETY: `v` is 32 readable bytes.
+    unsafe { _mm256_loadu_ps(v.as_ptr()) }
 }

@@ -13,13 +13,13 @@
 use std::arch::x86_64::{
     __m256, _CMP_GT_OQ, _CMP_LE_OQ, _CMP_LT_OQ, _mm256_blendv_ps, _mm256_cmp_ps, _mm256_loadu_ps,
     _mm256_min_ps, _mm256_movemask_ps, _mm256_mul_ps, _mm256_set1_ps, _mm256_setzero_ps,
-    _mm256_storeu_ps, _mm256_sub_ps,
+    _mm256_sub_ps,
 };
 
 use glam::Vec3;
 
 use super::aabb::EXIT_SCALE;
-use crate::x86::Avx2;
+use crate::x86::{Avx2, load, load_bits, store};
 
 /// Eight rays' constants for the slab test, lane `j` for ray `j`.
 #[derive(Clone, Copy)]
@@ -158,35 +158,6 @@ impl Entries {
         // proves.
         Self(unsafe { load(entries) })
     }
-}
-
-/// # Safety
-/// The CPU must support AVX.
-#[inline]
-#[target_feature(enable = "avx")]
-unsafe fn store(out: &mut [f32; 8], v: __m256) {
-    // SAFETY: `out` is 32 writable bytes.
-    unsafe { _mm256_storeu_ps(out.as_mut_ptr(), v) }
-}
-
-/// Eight `f32` stored as their bits.
-///
-/// # Safety
-/// The CPU must support AVX.
-#[inline]
-#[target_feature(enable = "avx")]
-unsafe fn load_bits(v: &[u32; 8]) -> __m256 {
-    // SAFETY: `v` is 32 readable bytes.
-    unsafe { _mm256_loadu_ps(v.as_ptr().cast::<f32>()) }
-}
-
-/// # Safety
-/// The CPU must support AVX.
-#[inline]
-#[target_feature(enable = "avx")]
-unsafe fn load(v: &[f32; 8]) -> __m256 {
-    // SAFETY: `v` is 32 readable bytes.
-    unsafe { _mm256_loadu_ps(v.as_ptr()) }
 }
 
 #[cfg(test)]

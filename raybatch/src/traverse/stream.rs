@@ -73,7 +73,6 @@ impl<B: Bvh, K: TriangleTest, V: Visitor> Loop for Stream<'_, '_, B, K, V> {
             return;
         }
         let single_ray_below = stream.options().single_ray_below;
-        #[cfg(target_arch = "x86_64")]
         let packet_from = stream.options().packet_from;
         let filter = Filter::detect();
         let mut pending = std::mem::take(&mut scratch.stream_stack);
@@ -92,20 +91,15 @@ impl<B: Bvh, K: TriangleTest, V: Visitor> Loop for Stream<'_, '_, B, K, V> {
             }
             if active < single_ray_below {
                 let start = (index, B::keep(&bounds));
-                #[cfg(target_arch = "x86_64")]
-                if let Filter::Eight(avx2) = filter
-                    && B::PACKET_WALK
-                    && active >= packet_from
-                    && active <= 8
-                {
-                    let done = super::packet::finish::<B, K, V>(
-                        avx2, tree, stream, active, start, scratch, visitor,
-                    );
-                    if done {
-                        continue;
-                    }
-                }
-                finish_one_by_one::<B, K, V>(tree, stream, active, start, scratch, visitor);
+                finish_few::<B, K, V>(
+                    (filter, packet_from),
+                    tree,
+                    stream,
+                    active,
+                    start,
+                    scratch,
+                    visitor,
+                );
                 continue;
             }
             let node = tree.node(index);
@@ -358,12 +352,16 @@ fn test_leaf<K, V>(
     }
 }
 
-/// Finishes the subtree under node `start` (whose box rays `0..active` touch) one ray at a
-/// time: when only a few rays are left, the per-node cost of the stream (partition, stack)
-/// outweighs what they share. The single-ray loop with each ray's current range gives the same
-/// answers (they do not depend on the visiting order).
+/// Finishes the subtree under node `start` for the few rays `0..active` that touch its box:
+/// when only a few rays are left, the per-node cost of the stream (partition, stack) outweighs
+/// what they share. Together with the packet walk (`traverse::packet`) where the tree asks for
+/// it ([`Bvh::PACKET_WALK`]), the CPU has AVX2 and there are `packet_from..=8` of them
+/// ([`crate::batch::BatchOptions::packet_from`]), else one ray at a time: the single-ray loop
+/// with each ray's current range gives the same answers (they do not depend on the visiting
+/// order).
 #[inline(always)]
-fn finish_one_by_one<B, K, V>(
+fn finish_few<B, K, V>(
+    (filter, packet_from): (Filter, usize),
     tree: &B,
     stream: &mut RayStream<'_>,
     active: usize,
@@ -375,6 +373,16 @@ fn finish_one_by_one<B, K, V>(
     K: TriangleTest,
     V: Visitor,
 {
+    #[cfg(target_arch = "x86_64")]
+    if let Filter::Eight(avx2) = filter
+        && B::PACKET_WALK
+        && active >= packet_from
+        && active <= 8
+        && super::packet::finish::<B, K, V>(avx2, tree, stream, active, start, scratch, visitor)
+    {
+        return;
+    }
+    let _ = (filter, packet_from);
     for i in 0..active {
         let ray = stream.ray(i);
         let mut tmax = ray.tmax;

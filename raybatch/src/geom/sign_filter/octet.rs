@@ -5,17 +5,16 @@
 //! four.
 
 use std::arch::x86_64::{
-    __m256, __m256i, _CMP_EQ_OQ, _CMP_GT_OQ, _CMP_LT_OQ, _mm256_and_ps, _mm256_and_si256,
-    _mm256_andnot_ps, _mm256_blendv_ps, _mm256_castps_si256, _mm256_castsi256_ps, _mm256_cmp_ps,
-    _mm256_cmpeq_epi32, _mm256_load_ps, _mm256_loadu_si256, _mm256_movemask_ps, _mm256_mul_ps,
-    _mm256_or_ps, _mm256_set1_epi32, _mm256_set1_ps, _mm256_setzero_ps, _mm256_srli_epi32,
-    _mm256_sub_ps,
+    __m256, _CMP_EQ_OQ, _CMP_GT_OQ, _CMP_LT_OQ, _mm256_and_ps, _mm256_and_si256, _mm256_andnot_ps,
+    _mm256_blendv_ps, _mm256_castps_si256, _mm256_castsi256_ps, _mm256_cmp_ps, _mm256_cmpeq_epi32,
+    _mm256_load_ps, _mm256_movemask_ps, _mm256_mul_ps, _mm256_or_ps, _mm256_set1_epi32,
+    _mm256_set1_ps, _mm256_setzero_ps, _mm256_srli_epi32, _mm256_sub_ps,
 };
 
 use glam::Vec3;
 
 use crate::geom::PreparedRay;
-use crate::x86::{Avx2, transpose};
+use crate::x86::{Avx2, load_bits, transpose};
 
 /// Eight rays' constants for the watertight kernel's sign test, lane `j` for ray `j`: the
 /// stream's leaves prove most ray/triangle misses eight rays at a time with it (see
@@ -57,12 +56,9 @@ impl RayOctet {
         shear: [&[u32; 8]; 2],
         axes: &[u32; 8],
     ) -> Self {
-        let column = |eight: &[u32; 8]| {
-            // SAFETY: `eight` is 32 readable bytes; an unaligned load is allowed.
-            unsafe { _mm256_loadu_si256(eight.as_ptr().cast::<__m256i>()) }
-        };
-        let float = |eight: &[u32; 8]| _mm256_castsi256_ps(column(eight));
-        let kz = _mm256_and_si256(column(axes), _mm256_set1_epi32(0xFF));
+        // SAFETY (each load): the CPU has AVX2, so AVX; a column is 32 readable bytes.
+        let float = |eight: &[u32; 8]| unsafe { load_bits(eight) };
+        let kz = _mm256_and_si256(_mm256_castps_si256(float(axes)), _mm256_set1_epi32(0xFF));
         let is = |axis: i32| _mm256_castsi256_ps(_mm256_cmpeq_epi32(kz, _mm256_set1_epi32(axis)));
         Self {
             origin: origin.map(float),
