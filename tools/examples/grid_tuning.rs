@@ -6,8 +6,9 @@
 //!
 //! `cargo run --release -p raybatch-tools --example grid_tuning [-- bunny|terrain|city|sparse [RAYS]]`
 //!
-//! `... grid_tuning -- race SCENE RAYS` times the AABB tree and the grid at its defaults on
-//! the short and vertical rays (the terrain targets of issue 11), per ray and batched, in
+//! `... grid_tuning -- race SCENE RAYS [NXxNYxNZ]` times the AABB tree and the grid at its defaults on
+//! the short and vertical rays (the terrain targets of issue 11), per ray and batched (the grid
+//! at its defaults or at the given resolution), in
 //! alternation within one process (best of 7 rounds each): on a noisy machine the ratio of
 //! two runs made side by side holds where separate runs drift.
 //!
@@ -43,7 +44,8 @@ fn main() {
         let count = args
             .next()
             .map_or(200_000, |n| n.parse().expect("a ray count"));
-        return race(&scene, count);
+        let resolution = args.next().map(|r| parse_resolution(&r));
+        return race(&scene, count, resolution);
     }
     let scene = scene(first.as_deref().unwrap_or("terrain"));
     let count: usize = args
@@ -203,9 +205,8 @@ fn profile(scene: &str, set: &str, structure: &str, count: usize) {
         }
         shaped if shaped.starts_with("grid:") => {
             // `grid:NXxNYxNZ`: a grid of that resolution.
-            let dims: Vec<u32> = shaped[5..].split('x').map(|d| d.parse().unwrap()).collect();
             let options = GridOptions {
-                resolution: Some([dims[0], dims[1], dims[2]]),
+                resolution: Some(parse_resolution(&shaped[5..])),
                 ..GridOptions::default()
             };
             let grid = UniformGrid::build(mesh, &options).unwrap();
@@ -218,15 +219,25 @@ fn profile(scene: &str, set: &str, structure: &str, count: usize) {
     println!("{hits} of {count} rays hit");
 }
 
-/// The `race` mode (see the module docs).
-fn race(scene: &str, count: usize) {
+/// `NXxNYxNZ` as cells along x, y and z.
+fn parse_resolution(text: &str) -> [u32; 3] {
+    let dims: Vec<u32> = text.split('x').map(|d| d.parse().unwrap()).collect();
+    [dims[0], dims[1], dims[2]]
+}
+
+/// The `race` mode (see the module docs), with the grid at its defaults or at `resolution`.
+fn race(scene: &str, count: usize, resolution: Option<[u32; 3]>) {
     let scene = self::scene(scene);
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(1)
         .build()
         .unwrap();
     let aabb: AabbTree = AabbTree::build(scene.mesh.clone(), &BuildOptions::default()).unwrap();
-    let grid = UniformGrid::build(scene.mesh.clone(), &GridOptions::default()).unwrap();
+    let options = GridOptions {
+        resolution,
+        ..GridOptions::default()
+    };
+    let grid = UniformGrid::build(scene.mesh.clone(), &options).unwrap();
     println!(
         "{} ({} triangles), grid {:?} at {:.1} B/tri, aabb {:.1} B/tri; {count} rays, closest \
          hit, one thread, ms (best of {ROUNDS} alternated rounds)\n",

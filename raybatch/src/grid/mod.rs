@@ -7,7 +7,8 @@
 //!
 //! - `planes`: the exact plane coordinates the build and the walk share;
 //! - [`sizing`]: how many cells ([`GridOptions`]);
-//! - `cells`: the compact storage (one offset per cell, one reference array);
+//! - `cells`: the compact storage (an occupancy bit per cell, the stored cells found by rank,
+//!   one array of cull boxes and references);
 //! - `cull`: each stored cell's cull box, the bounds of what its triangles put inside it, so
 //!   that rays crossing the cell away from them skip its triangle tests;
 //! - `walk`: the exact 3D-DDA (the argument for exactness is in its docs);

@@ -155,7 +155,7 @@ impl Accel for UniformGrid {
         let slab = SlabRay::new(ray);
         walk(&self.planes, ray, &mut tmax, |cell, tmax| {
             visitor.enter_node(id);
-            let words = self.cells.occupied_at(cell.index as usize);
+            let words = self.cells.stored_at(cell.index as usize);
             if let Some(refs) = words.and_then(|w| cull::refs_to_test(w, &slab, *tmax)) {
                 test_cell::<K, V>(&self.mesh, refs, ray, id, mailbox, tmax, visitor);
             }
