@@ -28,11 +28,11 @@ use crate::geom::aabb::SlabRay;
 
 use super::walk::GridPlanes;
 
-/// Words a cull box takes in front of a cell's references in the spatial hash.
+/// Words a cull box takes in front of a stored cell's references (grid and hash alike).
 pub(crate) const CULL_WORDS: usize = 6;
 
 /// A stored cell's cull box (see the module docs): six exact `f32`s.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[derive(Clone, Copy, Debug)]
 pub(crate) struct CullBox {
     min: [f32; 3],
     max: [f32; 3],
@@ -87,7 +87,7 @@ impl CullBox {
     }
 }
 
-/// The references of a stored cell of the spatial hash (its `words`: the cull box, then the
+/// The references of a stored cell (its `words`: the cull box, then the
 /// references) that the ray (`slab`) must test: all of them if it may meet the cull box within
 /// `[tmin, tmax]`, else `None` (nor if the words hold no cull box).
 #[inline(always)]
