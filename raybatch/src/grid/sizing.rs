@@ -34,7 +34,8 @@ pub struct GridOptions {
     /// Target number of cells per triangle (the grid's density). Measured on the bunny, the
     /// terrain and the city (see the README): 2 is near the best for closest hits.
     pub cells_per_triangle: f32,
-    /// Largest number of cells (4 bytes each, plus the triangle references).
+    /// Largest number of cells (1.5 bits each, empty or not, plus the stored cells' cull boxes
+    /// and triangle references).
     pub max_cells: u32,
     /// Cells along x, y and z, if given: overrides the density and the shape (still capped
     /// by `max_cells`).
