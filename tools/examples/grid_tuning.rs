@@ -6,11 +6,10 @@
 //!
 //! `cargo run --release -p raybatch-tools --example grid_tuning [-- bunny|terrain|city|sparse [RAYS]]`
 //!
-//! `... grid_tuning -- race SCENE RAYS [NXxNYxNZ]` times the AABB tree and the grid at its defaults on
-//! the short and vertical rays (the terrain targets of issue 11), per ray and batched (the grid
-//! at its defaults or at the given resolution), in
-//! alternation within one process (best of 7 rounds each): on a noisy machine the ratio of
-//! two runs made side by side holds where separate runs drift.
+//! `... grid_tuning -- race SCENE RAYS [NXxNYxNZ]` times the AABB tree and the grid (at its
+//! defaults, or at the given resolution) on the short and vertical rays (the terrain targets of
+//! issue 11), per ray and batched, in alternation within one process (best of 7 rounds each):
+//! on a noisy machine the ratio of two runs made side by side holds where separate runs drift.
 //!
 //! `... grid_tuning -- profile SCENE SET aabb|grid|grid-cube|grid:NXxNYxNZ|kd RAYS`
 //! (`grid-cube`: the grid with cube cells, `GridOptions::shaped_cells` off) builds one structure and traces one

@@ -23,7 +23,7 @@ use glam::Vec3;
 use crate::geom::Aabb;
 use crate::mesh::Mesh;
 
-use super::cull::{CULL_WORDS, CullBox};
+use super::cull::{CULL_WORDS, cull_words};
 use super::mailbox::SHARED;
 use super::planes::Planes;
 use super::walk::GridPlanes;
@@ -125,59 +125,39 @@ impl Cells {
         if u32::try_from(total).is_err() {
             return Err(needed);
         }
-        let mut cells = Self::occupancy(&counts);
-        // References go after each cell's cull box; `cursor` is the next free word.
+        // Each stored cell's cull box, then its references; `cursor` is the next free word.
+        let mut starts = Vec::with_capacity(stored.len() + 1);
+        starts.push(0u32);
         let mut cursor = vec![0u32; cell_count];
-        cells.starts.push(0);
         for &c in &stored {
-            let start = *cells.starts.last().unwrap();
+            let start = *starts.last().unwrap();
             cursor[c] = start + CULL_WORDS as u32;
-            cells.starts.push(cursor[c] + counts[c]);
+            starts.push(cursor[c] + counts[c]);
         }
-        cells.words = vec![0u32; total];
+        let mut words = vec![0u32; total];
         for (&id, block) in live.iter().zip(blocks) {
             let r = reference(id, block);
             for_each_cell(block, |x, y, z| {
                 let slot = &mut cursor[index(x, y, z)];
-                cells.words[*slot as usize] = r;
+                words[*slot as usize] = r;
                 *slot += 1;
             });
         }
         for (rank, &c) in stored.iter().enumerate() {
-            let (start, end) = (cells.starts[rank] as usize, cells.starts[rank + 1] as usize);
-            let refs = &cells.words[start + CULL_WORDS..end];
+            let (start, end) = (starts[rank] as usize, starts[rank + 1] as usize);
+            let refs = &words[start + CULL_WORDS..end];
             let triangle_boxes = refs.iter().map(|&r| boxes[(r & !SHARED) as usize]);
-            let cull = CullBox::new(planes, cell_of(dims, c as u64), triangle_boxes);
-            cells.words[start..start + CULL_WORDS].copy_from_slice(&cull.to_words());
+            let cull = cull_words(planes, cell_of(dims, c as u64), triangle_boxes);
+            words[start..start + CULL_WORDS].copy_from_slice(&cull);
         }
-        Ok(cells)
-    }
-
-    /// The occupancy bits and ranks of cells holding `counts` references each (no cell
-    /// stored yet).
-    fn occupancy(counts: &[u32]) -> Self {
-        let occupied: Vec<u64> = counts
-            .chunks(64)
-            .map(|word| {
-                let bits = word.iter().enumerate().filter(|(_, n)| **n > 0);
-                bits.fold(0u64, |acc, (bit, _)| acc | 1 << bit)
-            })
-            .collect();
-        let stored_before = occupied
-            .iter()
-            .scan(0u32, |before, word| {
-                let this = *before;
-                *before += word.count_ones();
-                Some(this)
-            })
-            .collect();
-        Self {
-            cell_count: counts.len(),
+        let (occupied, stored_before) = occupancy(cell_count, &stored);
+        Ok(Self {
+            cell_count,
             occupied,
             stored_before,
-            starts: Vec::new(),
-            words: Vec::new(),
-        }
+            starts,
+            words,
+        })
     }
 
     /// The words of cell `c` (a linear index, [`cell_index`]: its cull box, then its
@@ -213,6 +193,25 @@ impl Cells {
         self.occupied.len() * size_of::<u64>()
             + (self.stored_before.len() + self.starts.len() + self.words.len()) * size_of::<u32>()
     }
+}
+
+/// The occupancy bits of a grid of `cell_count` cells whose cells `stored` (increasing) hold
+/// references, and the number of stored cells before each 64-bit word of them.
+fn occupancy(cell_count: usize, stored: &[usize]) -> (Vec<u64>, Vec<u32>) {
+    let mut occupied = vec![0u64; cell_count.div_ceil(64)];
+    for &c in stored {
+        occupied[c / 64] |= 1 << (c % 64);
+    }
+    let mut before = 0u32;
+    let stored_before = occupied
+        .iter()
+        .map(|word| {
+            let this = before;
+            before += word.count_ones();
+            this
+        })
+        .collect();
+    (occupied, stored_before)
 }
 
 /// The index of cell `[x, y, z]` in a `dims` grid (x fastest).
@@ -289,16 +288,11 @@ mod tests {
         let cells = Cells::build(&planes, &[0, 1], &boxes, &blocks, 100).unwrap();
         let cull = |cell| {
             let c = cell_index([2, 2, 1], cell);
-            let words = cells.stored_at(c).unwrap();
-            let f = |range: std::ops::Range<usize>| {
-                Vec3::from_slice(
-                    &words[range]
-                        .iter()
-                        .map(|&w| f32::from_bits(w))
-                        .collect::<Vec<_>>(),
-                )
-            };
-            (f(0..3), f(3..CULL_WORDS))
+            let words: Vec<f32> = cells.stored_at(c).unwrap()[..CULL_WORDS]
+                .iter()
+                .map(|&w| f32::from_bits(w))
+                .collect();
+            (Vec3::from_slice(&words[..3]), Vec3::from_slice(&words[3..]))
         };
         // Triangle 0's box [0.2, 1.9] x [0.1, 1.9] cut by each cell; triangle 1 in (0, 0).
         assert_eq!(

@@ -31,69 +31,35 @@ use super::walk::GridPlanes;
 /// Words a cull box takes in front of a stored cell's references (grid and hash alike).
 pub(crate) const CULL_WORDS: usize = 6;
 
-/// A stored cell's cull box (see the module docs): six exact `f32`s.
-#[derive(Clone, Copy, Debug)]
-pub(crate) struct CullBox {
-    min: [f32; 3],
-    max: [f32; 3],
+/// The cull box of cell `cell` (slab indices) of `planes` holding triangles whose boxes are
+/// `boxes` (`(min, max)` each), as the words stored in front of the cell's references.
+pub(crate) fn cull_words(
+    planes: &GridPlanes,
+    cell: [u32; 3],
+    boxes: impl Iterator<Item = (Vec3, Vec3)>,
+) -> [u32; CULL_WORDS] {
+    let at = |axis: usize, plane: u32| planes[axis].planes()[plane as usize];
+    let cell_min = Vec3::from_array([0, 1, 2].map(|a| at(a, cell[a])));
+    let cell_max = Vec3::from_array([0, 1, 2].map(|a| at(a, cell[a] + 1)));
+    let (mut min, mut max) = (Vec3::INFINITY, Vec3::NEG_INFINITY);
+    for (lo, hi) in boxes {
+        min = min.min(lo.max(cell_min));
+        max = max.max(hi.min(cell_max));
+    }
+    let [a, b, c] = min.to_array().map(f32::to_bits);
+    let [d, e, f] = max.to_array().map(f32::to_bits);
+    [a, b, c, d, e, f]
 }
 
-impl CullBox {
-    /// The cull box of cell `cell` (slab indices) of `planes` holding triangles whose boxes
-    /// are `boxes` (`(min, max)` each).
-    pub(crate) fn new(
-        planes: &GridPlanes,
-        cell: [u32; 3],
-        boxes: impl Iterator<Item = (Vec3, Vec3)>,
-    ) -> Self {
-        let at = |axis: usize, plane: u32| planes[axis].planes()[plane as usize];
-        let cell_min = Vec3::from_array([0, 1, 2].map(|a| at(a, cell[a])));
-        let cell_max = Vec3::from_array([0, 1, 2].map(|a| at(a, cell[a] + 1)));
-        let (mut min, mut max) = (Vec3::INFINITY, Vec3::NEG_INFINITY);
-        for (lo, hi) in boxes {
-            min = min.min(lo.max(cell_min));
-            max = max.max(hi.min(cell_max));
-        }
-        Self {
-            min: min.to_array(),
-            max: max.to_array(),
-        }
-    }
-
-    /// The box as the words stored in front of a cell's references.
-    pub(crate) fn to_words(self) -> [u32; CULL_WORDS] {
-        let [a, b, c] = self.min.map(f32::to_bits);
-        let [d, e, f] = self.max.map(f32::to_bits);
-        [a, b, c, d, e, f]
-    }
-
-    /// The box of `words` (from [`Self::to_words`]).
-    #[inline(always)]
-    fn from_words(words: &[u32; CULL_WORDS]) -> Self {
-        let f = |i: usize| f32::from_bits(words[i]);
-        Self {
-            min: [f(0), f(1), f(2)],
-            max: [f(3), f(4), f(5)],
-        }
-    }
-
-    /// True if the ray (`slab`, its slab-test constants, made once per walk) may meet the box
-    /// within `[tmin, tmax]`.
-    #[inline(always)]
-    fn may_meet(&self, slab: &SlabRay, tmax: f32) -> bool {
-        let min = Vec3A::from_array(self.min);
-        let max = Vec3A::from_array(self.max);
-        slab.entry(min, max, tmax) < f32::INFINITY
-    }
-}
-
-/// The references of a stored cell (its `words`: the cull box, then the
-/// references) that the ray (`slab`) must test: all of them if it may meet the cull box within
-/// `[tmin, tmax]`, else `None` (nor if the words hold no cull box).
+/// The references of a stored cell (its `words`: the cull box, then the references) that
+/// the ray (`slab`, its slab-test constants, made once per walk) must test: all of them if it
+/// may meet the cull box within `[tmin, tmax]`, else `None` (nor if the words hold no cull
+/// box).
 #[inline(always)]
 pub(crate) fn refs_to_test<'a>(words: &'a [u32], slab: &SlabRay, tmax: f32) -> Option<&'a [u32]> {
     let (cull, refs) = words.split_first_chunk::<CULL_WORDS>()?;
-    CullBox::from_words(cull)
-        .may_meet(slab, tmax)
-        .then_some(refs)
+    let f = |i: usize| f32::from_bits(cull[i]);
+    let min = Vec3A::new(f(0), f(1), f(2));
+    let max = Vec3A::new(f(3), f(4), f(5));
+    (slab.entry(min, max, tmax) < f32::INFINITY).then_some(refs)
 }

@@ -18,7 +18,7 @@ use crate::hit::Visitor;
 use crate::mesh::Mesh;
 
 use super::cells::{Block, TriangleBox, blocks, cell_of, for_each_cell, grid_planes, reference};
-use super::cull::{self, CULL_WORDS, CullBox};
+use super::cull::{self, CULL_WORDS, cull_words};
 use super::mailbox::SHARED;
 use super::scratch::GridScratch;
 use super::sizing::{GridOptions, cap, cell_shape, resolution};
@@ -205,7 +205,7 @@ fn fill(
         let cell = cell_of(dims, key);
         let triangle_box = |p: &(u64, u32)| boxes[(p.1 & !SHARED) as usize];
         table.insert(key, words.len() as u32, (CULL_WORDS + run.len()) as u32);
-        words.extend(CullBox::new(planes, cell, run.iter().map(triangle_box)).to_words());
+        words.extend(cull_words(planes, cell, run.iter().map(triangle_box)));
         words.extend(run.iter().map(|p| p.1));
         stored.push(cell);
     }
