@@ -1,29 +1,32 @@
 //! The grid's compact storage: an occupancy bit per cell, and for the cells that hold
-//! triangles (the *stored* cells) one start each into one array of words, a cell's cull box
-//! (`super::cull`) then its triangle references; no per-cell containers (the seed's "array of
-//! cells", minus the per-cell allocations) and nothing for an empty cell but its bit and a
-//! share of the running counts (1.5 bits in all).
+//! triangles (the *stored* cells) a coarse cull box (`super::cull`, 30 bits) and a start into
+//! one array of triangle references; no per-cell containers (the seed's "array of cells",
+//! minus the per-cell allocations) and nothing for an empty cell but its bit and a share of
+//! the running counts (1.5 bits in all).
 //!
 //! A triangle is referenced by every cell of its *block*: the cells whose planes enclose its
 //! bounding box (see [`Planes::covering`], and `super::walk` for why that is enough for
 //! exactness). Within a cell, references are in increasing triangle id. A reference is the
 //! triangle id with [`SHARED`] set when the block has more than one cell (`super::mailbox`).
 //!
-//! **Why stored cells by rank.** A stored cell's start is found by its rank among the stored
-//! cells: the running count of stored cells before its 64-cell occupancy word plus the set
+//! **Why stored cells by rank.** A stored cell's cull box and start are found by its rank
+//! among the stored cells: the running count of stored cells before its 64-cell occupancy word plus the set
 //! bits below it in that word, both in cache beside the bits. A start per cell, empty or not
 //! (the previous layout), took 8 MB on the 1M-triangle terrain, whose loads missed the cache
 //! before the cell's words did. Measured (README, "Spatial subdivision"): 23% less memory on
 //! the terrain, 9x less on the sparse world, the same speed on the terrain; a 32-byte record
-//! per stored cell (cull box and reference range, the references elsewhere) ran no faster on
-//! short rays and cost the cells a ray tests a second miss.
+//! per stored cell (exact cull box and reference range, the references elsewhere) ran no
+//! faster on short rays and cost the cells a ray tests a second miss; 4 bytes of coarse cull
+//! box per stored cell, by rank, did pay (`super::cull`).
 
 use glam::Vec3;
 
 use crate::geom::Aabb;
 use crate::mesh::Mesh;
 
-use super::cull::{CULL_WORDS, cull_words};
+#[cfg(test)]
+use super::cull::coarse_box;
+use super::cull::{coarse_cull, coarse_steps, cull_words};
 use super::mailbox::SHARED;
 use super::planes::Planes;
 use super::walk::GridPlanes;
@@ -92,10 +95,13 @@ pub(crate) struct Cells {
     /// The number of stored cells before each word of `occupied`: a stored cell's rank is
     /// that plus the set bits below it in its word.
     stored_before: Vec<u32>,
-    /// `starts[k]..starts[k + 1]` are the words of the stored cell of rank `k`.
+    /// `starts[k]..starts[k + 1]` are the references of the stored cell of rank `k`.
     starts: Vec<u32>,
-    /// Every stored cell's cull box ([`CULL_WORDS`]) then its references, cell after cell.
-    words: Vec<u32>,
+    /// Every stored cell's triangle references, cell after cell.
+    refs: Vec<u32>,
+    /// Every stored cell's cull box, rounded out to whole steps of a thirty-first of a cell
+    /// (`super::cull::coarse_cull`), by rank.
+    cull: Vec<u32>,
 }
 
 impl Cells {
@@ -121,61 +127,78 @@ impl Cells {
             for_each_cell(block, |x, y, z| counts[index(x, y, z)] += 1);
         }
         let stored: Vec<usize> = (0..cell_count).filter(|&c| counts[c] > 0).collect();
-        let total = needed as usize + CULL_WORDS * stored.len();
-        if u32::try_from(total).is_err() {
-            return Err(needed);
-        }
-        // Each stored cell's cull box, then its references; `cursor` is the next free word.
+        // Each stored cell's references; `cursor` is the next free word.
         let mut starts = Vec::with_capacity(stored.len() + 1);
         starts.push(0u32);
         let mut cursor = vec![0u32; cell_count];
         for &c in &stored {
             let start = *starts.last().unwrap();
-            cursor[c] = start + CULL_WORDS as u32;
-            starts.push(cursor[c] + counts[c]);
+            cursor[c] = start;
+            starts.push(start + counts[c]);
         }
-        let mut words = vec![0u32; total];
+        let mut refs = vec![0u32; needed as usize];
         for (&id, block) in live.iter().zip(blocks) {
             let r = reference(id, block);
             for_each_cell(block, |x, y, z| {
                 let slot = &mut cursor[index(x, y, z)];
-                words[*slot as usize] = r;
+                refs[*slot as usize] = r;
                 *slot += 1;
             });
         }
-        for (rank, &c) in stored.iter().enumerate() {
-            let (start, end) = (starts[rank] as usize, starts[rank + 1] as usize);
-            let refs = &words[start + CULL_WORDS..end];
-            let triangle_boxes = refs.iter().map(|&r| boxes[(r & !SHARED) as usize]);
-            let cull = cull_words(planes, cell_of(dims, c as u64), triangle_boxes);
-            words[start..start + CULL_WORDS].copy_from_slice(&cull);
-        }
+        let steps = coarse_steps(planes);
+        let cull = stored
+            .iter()
+            .enumerate()
+            .map(|(rank, &c)| {
+                let cell = cell_of(dims, c as u64);
+                let cell_refs = &refs[starts[rank] as usize..starts[rank + 1] as usize];
+                let triangle_boxes = cell_refs.iter().map(|&r| boxes[(r & !SHARED) as usize]);
+                coarse_cull(
+                    planes,
+                    steps,
+                    cell,
+                    &cull_words(planes, cell, triangle_boxes),
+                )
+            })
+            .collect();
         let (occupied, stored_before) = occupancy(cell_count, &stored);
         Ok(Self {
             cell_count,
             occupied,
             stored_before,
             starts,
-            words,
+            refs,
+            cull,
         })
     }
 
-    /// The words of cell `c` (a linear index, [`cell_index`]: its cull box, then its
-    /// references), `None` if it holds none.
+    /// The rank of cell `c` (a linear index, [`cell_index`]) among the stored cells, `None`
+    /// if it holds no reference.
     #[inline(always)]
-    pub(crate) fn stored_at(&self, c: usize) -> Option<&[u32]> {
+    pub(crate) fn rank_of(&self, c: usize) -> Option<usize> {
         let word = self.occupied[c / 64];
         let bit = 1u64 << (c % 64);
         if word & bit == 0 {
             return None;
         }
-        let rank = (self.stored_before[c / 64] + (word & (bit - 1)).count_ones()) as usize;
-        Some(&self.words[self.starts[rank] as usize..self.starts[rank + 1] as usize])
+        Some((self.stored_before[c / 64] + (word & (bit - 1)).count_ones()) as usize)
+    }
+
+    /// The packed coarse cull box of the stored cell of rank `rank` (`super::cull`).
+    #[inline(always)]
+    pub(crate) fn cull(&self, rank: usize) -> u32 {
+        self.cull[rank]
+    }
+
+    /// The references of the stored cell of rank `rank`.
+    #[inline(always)]
+    pub(crate) fn refs(&self, rank: usize) -> &[u32] {
+        &self.refs[self.starts[rank] as usize..self.starts[rank + 1] as usize]
     }
 
     /// True if no cell holds a triangle.
     pub(crate) fn is_empty(&self) -> bool {
-        self.words.is_empty()
+        self.refs.is_empty()
     }
 
     /// Number of cells.
@@ -185,13 +208,14 @@ impl Cells {
 
     /// Number of triangle references.
     pub(crate) fn reference_count(&self) -> usize {
-        self.words.len() - CULL_WORDS * self.starts.len().saturating_sub(1)
+        self.refs.len()
     }
 
     /// Bytes on the heap.
     pub(crate) fn heap_bytes(&self) -> usize {
         self.occupied.len() * size_of::<u64>()
-            + (self.stored_before.len() + self.starts.len() + self.words.len()) * size_of::<u32>()
+            + (self.stored_before.len() + self.starts.len() + self.refs.len() + self.cull.len())
+                * size_of::<u32>()
     }
 }
 
@@ -255,11 +279,7 @@ mod tests {
         let boxes = triangle_boxes(&mesh);
         let blocks = blocks(&[0, 1], &boxes, &planes);
         let cells = Cells::build(&planes, &[0, 1], &boxes, &blocks, 100).unwrap();
-        let refs = |cell| {
-            cells
-                .stored_at(cell_index(dims, cell))
-                .map(|words| &words[CULL_WORDS..])
-        };
+        let refs = |cell| cells.rank_of(cell_index(dims, cell)).map(|k| cells.refs(k));
         assert_eq!(refs([0, 0, 0]), Some(&[0, 1 | SHARED][..]));
         assert_eq!(refs([1, 0, 0]), Some(&[1 | SHARED][..]));
         assert_eq!(refs([1, 1, 0]), Some(&[1 | SHARED][..]));
@@ -286,22 +306,32 @@ mod tests {
         let boxes = triangle_boxes(&mesh);
         let blocks = blocks(&[0, 1], &boxes, &planes);
         let cells = Cells::build(&planes, &[0, 1], &boxes, &blocks, 100).unwrap();
+        let steps = coarse_steps(&planes);
         let cull = |cell| {
-            let c = cell_index([2, 2, 1], cell);
-            let words: Vec<f32> = cells.stored_at(c).unwrap()[..CULL_WORDS]
-                .iter()
-                .map(|&w| f32::from_bits(w))
-                .collect();
-            (Vec3::from_slice(&words[..3]), Vec3::from_slice(&words[3..]))
+            let rank = cells.rank_of(cell_index([2, 2, 1], cell)).unwrap();
+            let (min, max) = coarse_box(&planes, steps, cell, cells.cull(rank));
+            (Vec3::from(min), Vec3::from(max))
         };
-        // Triangle 0's box [0.2, 1.9] x [0.1, 1.9] cut by each cell; triangle 1 in (0, 0).
-        assert_eq!(
-            cull([1, 1, 0]),
-            (Vec3::new(1.0, 1.0, 0.5), Vec3::new(1.9, 1.9, 0.5))
+        // Within a step (a thirty-first of the cell) outside what the triangles put in the
+        // cell: triangle 0's box [0.2, 1.9] x [0.1, 1.9] cut by each cell; triangle 1 in (0, 0).
+        let holds = |cell, min: Vec3, max: Vec3| {
+            let (lo, hi) = cull(cell);
+            let step = Vec3::from(steps);
+            assert!(lo.cmple(min).all() && hi.cmpge(max).all(), "{cell:?}");
+            assert!(
+                (min - lo).cmplt(step).all() && (hi - max).cmplt(step).all(),
+                "{cell:?}"
+            );
+        };
+        holds(
+            [1, 1, 0],
+            Vec3::new(1.0, 1.0, 0.5),
+            Vec3::new(1.9, 1.9, 0.5),
         );
-        assert_eq!(
-            cull([0, 0, 0]),
-            (Vec3::new(0.1, 0.1, 0.25), Vec3::new(1.0, 1.0, 0.5))
+        holds(
+            [0, 0, 0],
+            Vec3::new(0.1, 0.1, 0.25),
+            Vec3::new(1.0, 1.0, 0.5),
         );
     }
 }

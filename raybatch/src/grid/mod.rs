@@ -7,10 +7,11 @@
 //!
 //! - `planes`: the exact plane coordinates the build and the walk share;
 //! - [`sizing`]: how many cells ([`GridOptions`]);
-//! - `cells`: the compact storage (an occupancy bit per cell, the stored cells found by rank,
-//!   one array of cull boxes and references);
+//! - `cells`: the dense grid's compact storage (an occupancy bit per cell, the stored cells
+//!   found by rank, a coarse cull box each, one array of references);
 //! - `cull`: each stored cell's cull box, the bounds of what its triangles put inside it, so
-//!   that rays crossing the cell away from them skip its triangle tests;
+//!   that rays crossing the cell away from them skip its triangle tests (exact in the hash,
+//!   rounded out to 30 bits in the dense grid);
 //! - `walk`: the exact 3D-DDA (the argument for exactness is in its docs);
 //! - [`mailbox`]: a small per-thread set of tested triangles, so a triangle in several cells is
 //!   tested once per ray;

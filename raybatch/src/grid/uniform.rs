@@ -29,6 +29,8 @@ pub struct UniformGrid {
     mesh: Arc<Mesh>,
     planes: GridPlanes,
     cells: Cells,
+    /// Coarse cull steps per axis (`cull::coarse_steps`).
+    steps: glam::Vec3A,
 }
 
 impl UniformGrid {
@@ -42,6 +44,7 @@ impl UniformGrid {
             let planes = grid_planes(&Aabb::new(bounds.min, bounds.min), [1; 3]);
             return Ok(Self {
                 mesh,
+                steps: cull::coarse_steps(&planes),
                 planes,
                 cells: Cells::default(),
             });
@@ -56,6 +59,7 @@ impl UniformGrid {
                 Ok(cells) => {
                     return Ok(Self {
                         mesh,
+                        steps: cull::coarse_steps(&planes),
                         planes,
                         cells,
                     });
@@ -153,10 +157,15 @@ impl Accel for UniformGrid {
         }
         mailbox.next_ray();
         let slab = SlabRay::new(ray);
+        let steps = self.steps;
         walk(&self.planes, ray, &mut tmax, |cell, tmax| {
             visitor.enter_node(id);
-            let words = self.cells.stored_at(cell.index as usize);
-            if let Some(refs) = words.and_then(|w| cull::refs_to_test(w, &slab, *tmax)) {
+            let Some(rank) = self.cells.rank_of(cell.index as usize) else {
+                return;
+            };
+            let cull = self.cells.cull(rank);
+            if cull::coarse_hit(&self.planes, steps, cell.slabs, cull, &slab, *tmax) {
+                let refs = self.cells.refs(rank);
                 test_cell::<K, V>(&self.mesh, refs, ray, id, mailbox, tmax, visitor);
             }
         });
