@@ -10,8 +10,8 @@
 //! triangle id with [`SHARED`] set when the block has more than one cell (`super::mailbox`).
 //!
 //! **Why stored cells by rank.** A stored cell's cull box and start are found by its rank
-//! among the stored cells: the running count of stored cells before its 64-cell occupancy word plus the set
-//! bits below it in that word, both in cache beside the bits. A start per cell, empty or not
+//! among the stored cells: the running count of stored cells before its 64-cell occupancy
+//! word plus the set bits below it in that word, both in cache beside the bits. A start per cell, empty or not
 //! (the previous layout), took 8 MB on the 1M-triangle terrain, whose loads missed the cache
 //! before the cell's words did. Measured (README, "Spatial subdivision"): 23% less memory on
 //! the terrain, 9x less on the sparse world, the same speed on the terrain; a 32-byte record
@@ -19,14 +19,13 @@
 //! faster on short rays and cost the cells a ray tests a second miss; 4 bytes of coarse cull
 //! box per stored cell, by rank, did pay (`super::cull`).
 
-use glam::Vec3;
+use glam::{Vec3, Vec3A};
 
 use crate::geom::Aabb;
+use crate::geom::aabb::SlabRay;
 use crate::mesh::Mesh;
 
-#[cfg(test)]
-use super::cull::coarse_box;
-use super::cull::{coarse_cull, coarse_steps, cull_words};
+use super::cull::{coarse_cull, coarse_hit, coarse_steps, cull_box};
 use super::mailbox::SHARED;
 use super::planes::Planes;
 use super::walk::GridPlanes;
@@ -102,6 +101,8 @@ pub(crate) struct Cells {
     /// Every stored cell's cull box, rounded out to whole steps of a thirty-first of a cell
     /// (`super::cull::coarse_cull`), by rank.
     cull: Vec<u32>,
+    /// Those steps, per axis (`super::cull::coarse_steps`).
+    steps: Vec3A,
 }
 
 impl Cells {
@@ -153,12 +154,7 @@ impl Cells {
                 let cell = cell_of(dims, c as u64);
                 let cell_refs = &refs[starts[rank] as usize..starts[rank + 1] as usize];
                 let triangle_boxes = cell_refs.iter().map(|&r| boxes[(r & !SHARED) as usize]);
-                coarse_cull(
-                    planes,
-                    steps,
-                    cell,
-                    &cull_words(planes, cell, triangle_boxes),
-                )
+                coarse_cull(planes, steps, cell, cull_box(planes, cell, triangle_boxes))
             })
             .collect();
         let (occupied, stored_before) = occupancy(cell_count, &stored);
@@ -169,6 +165,7 @@ impl Cells {
             starts,
             refs,
             cull,
+            steps,
         })
     }
 
@@ -184,10 +181,18 @@ impl Cells {
         Some((self.stored_before[c / 64] + (word & (bit - 1)).count_ones()) as usize)
     }
 
-    /// The packed coarse cull box of the stored cell of rank `rank` (`super::cull`).
+    /// The references of the stored cell of rank `rank` (cell `cell` of `planes`, the grid
+    /// built over them) that the ray (`slab`) must test: all of them if it may meet the cell's
+    /// coarse cull box within `[tmin, tmax]`, else `None`.
     #[inline(always)]
-    pub(crate) fn cull(&self, rank: usize) -> u32 {
-        self.cull[rank]
+    pub(crate) fn refs_to_test(
+        &self,
+        rank: usize,
+        (planes, cell): (&GridPlanes, [u32; 3]),
+        slab: &SlabRay,
+        tmax: f32,
+    ) -> Option<&[u32]> {
+        coarse_hit(planes, self.steps, cell, self.cull[rank], slab, tmax).then(|| self.refs(rank))
     }
 
     /// The references of the stored cell of rank `rank`.
@@ -261,6 +266,7 @@ mod tests {
     use glam::Vec3;
 
     use super::*;
+    use crate::grid::cull::coarse_box;
 
     #[test]
     fn triangles_are_stored_in_their_block_only_in_id_order() {
@@ -306,10 +312,10 @@ mod tests {
         let boxes = triangle_boxes(&mesh);
         let blocks = blocks(&[0, 1], &boxes, &planes);
         let cells = Cells::build(&planes, &[0, 1], &boxes, &blocks, 100).unwrap();
-        let steps = coarse_steps(&planes);
+        let steps = cells.steps;
         let cull = |cell| {
             let rank = cells.rank_of(cell_index([2, 2, 1], cell)).unwrap();
-            let (min, max) = coarse_box(&planes, steps, cell, cells.cull(rank));
+            let (min, max) = coarse_box(&planes, steps, cell, cells.cull[rank]);
             (Vec3::from(min), Vec3::from(max))
         };
         // Within a step (a thirty-first of the cell) outside what the triangles put in the

@@ -11,7 +11,6 @@ use crate::mesh::Mesh;
 use crate::traverse::single::test_triangles;
 
 use super::cells::{Cells, TriangleBox, blocks, grid_planes, triangle_boxes};
-use super::cull;
 use super::mailbox::{Mailbox, SHARED};
 use super::scratch::GridScratch;
 use super::sizing::{GridOptions, cap, cell_shape, resolution};
@@ -29,8 +28,6 @@ pub struct UniformGrid {
     mesh: Arc<Mesh>,
     planes: GridPlanes,
     cells: Cells,
-    /// Coarse cull steps per axis (`cull::coarse_steps`).
-    steps: glam::Vec3A,
 }
 
 impl UniformGrid {
@@ -44,7 +41,6 @@ impl UniformGrid {
             let planes = grid_planes(&Aabb::new(bounds.min, bounds.min), [1; 3]);
             return Ok(Self {
                 mesh,
-                steps: cull::coarse_steps(&planes),
                 planes,
                 cells: Cells::default(),
             });
@@ -59,7 +55,6 @@ impl UniformGrid {
                 Ok(cells) => {
                     return Ok(Self {
                         mesh,
-                        steps: cull::coarse_steps(&planes),
                         planes,
                         cells,
                     });
@@ -157,15 +152,13 @@ impl Accel for UniformGrid {
         }
         mailbox.next_ray();
         let slab = SlabRay::new(ray);
-        let steps = self.steps;
         walk(&self.planes, ray, &mut tmax, |cell, tmax| {
             visitor.enter_node(id);
             let Some(rank) = self.cells.rank_of(cell.index as usize) else {
                 return;
             };
-            let cull = self.cells.cull(rank);
-            if cull::coarse_hit(&self.planes, steps, cell.slabs, cull, &slab, *tmax) {
-                let refs = self.cells.refs(rank);
+            let grid_cell = (&self.planes, cell.slabs);
+            if let Some(refs) = self.cells.refs_to_test(rank, grid_cell, &slab, *tmax) {
                 test_cell::<K, V>(&self.mesh, refs, ray, id, mailbox, tmax, visitor);
             }
         });

@@ -122,6 +122,20 @@ pub(crate) fn walk(
     }
 }
 
+/// The axis whose next entry distance `next[axis]` comes first, and that distance (the lowest
+/// axis on ties, so that the order of visits is deterministic).
+#[inline(always)]
+fn first_entry(next: [f32; 3]) -> (usize, f32) {
+    let [x, y, z] = next;
+    if x <= y && x <= z {
+        (0, x)
+    } else if y <= z {
+        (1, y)
+    } else {
+        (2, z)
+    }
+}
+
 /// The walk's state, axis by axis (arrays indexed by axis, so that a step is a few loads and
 /// compares). Slabs are slab indices; the ray meets them in the order `s, s + step, ...`, and
 /// the plane between slab `s` and the next one it meets is `at[s + fwd]`: it is where the ray
@@ -268,10 +282,16 @@ impl<'a> Walk<'a> {
     /// Entry distance of the slab after `front` on axis `i`, `+inf` past the last slab.
     #[inline(always)]
     fn enter_after_front(&self, i: usize) -> f32 {
-        if self.front[i] == self.last[i] {
+        self.enter_after(i, self.front[i])
+    }
+
+    /// Entry distance of the slab after slab `s` on axis `i`, `+inf` past the last slab.
+    #[inline(always)]
+    fn enter_after(&self, i: usize, s: u32) -> f32 {
+        if s == self.last[i] {
             return f32::INFINITY;
         }
-        (self.at[i][(self.front[i] + self.fwd[i]) as usize] - self.origin[i]) * self.inv[i]
+        (self.at[i][(s + self.fwd[i]) as usize] - self.origin[i]) * self.inv[i]
     }
 
     /// Sets axis `i`'s active slabs to those active at `t0` (the grid's entry distance): the
@@ -340,18 +360,10 @@ impl<'a> Walk<'a> {
         }
     }
 
-    /// The axis whose next slab is entered first (the lowest index on ties, so that the order
-    /// of visits is deterministic).
+    /// The axis whose next slab is entered first ([`first_entry`]).
     #[inline(always)]
     fn next_axis(&self) -> usize {
-        let [x, y, z] = self.next_enter;
-        if x <= y && x <= z {
-            0
-        } else if y <= z {
-            1
-        } else {
-            2
-        }
+        first_entry(self.next_enter).0
     }
 
     /// Drops the slabs left strictly before `t` on the lagging axes (keeping at least the
@@ -443,14 +455,7 @@ impl<'a> Walk<'a> {
                 },
                 tmax,
             );
-            let [x, y, z] = next;
-            let (a, te) = if x <= y && x <= z {
-                (0, x)
-            } else if y <= z {
-                (1, y)
-            } else {
-                (2, z)
-            };
+            let (a, te) = first_entry(next);
             if te > self.end(*tmax) {
                 break false;
             }
@@ -484,11 +489,7 @@ impl<'a> Walk<'a> {
     ) {
         front[A] = front[A].wrapping_add(self.step[A]);
         *index = index.wrapping_add(self.index_step[A]);
-        next[A] = if front[A] == self.last[A] {
-            f32::INFINITY
-        } else {
-            (self.at[A][(front[A] + self.fwd[A]) as usize] - self.origin[A]) * self.inv[A]
-        };
+        next[A] = self.enter_after(A, front[A]);
     }
 
     /// The lag state after a step on axis `a` from a single active cell, the left slab
