@@ -33,7 +33,7 @@ pub enum AccelKind {
     /// [`WideTree`]: the same tree collapsed to 4 children per node, SIMD box tests.
     Bvh4,
     /// [`WideTree8`]: the same tree collapsed to 8 children per node (AVX2 box tests where
-    /// the CPU has them), for single rays; batches walk its rays one at a time.
+    /// the CPU has them), for single rays; its batches share nodes as the 4-wide tree's do.
     Bvh8,
     /// [`ZeroByteTree`]: no memory beside the mesh, boxes recomputed, per-thread box cache.
     Zbt,

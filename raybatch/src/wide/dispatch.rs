@@ -1,11 +1,11 @@
-//! The wide trees' loops (one ray, rays one at a time, nodes shared, side by side) in their
+//! The wide trees' loops (one ray, nodes shared, side by side) in their
 //! baseline and AVX2 copies ([`crate::traverse::avx2`]).
 //! With AVX2 (and the VEX encoding it brings) the box test and the triangle kernels need fewer
 //! register copies; `wide::tests` compares the two copies.
 
 use super::node::BoxSimd;
 use super::stack::Stack;
-use super::{NodeKind, WideBvh, WideScratch, WideTree};
+use super::{NodeKind, WideBvh, WideScratch};
 use super::{interleaved, single, stream};
 use crate::accel::RayStream;
 use crate::geom::{PreparedRay, TriangleTest};
@@ -56,22 +56,13 @@ pub(crate) fn trace<N: NodeKind, K: TriangleTest, V: Visitor>(
     avx2::run(one, avx2)
 }
 
-/// How a stream's rays go through the one-ray loop.
-#[derive(Clone, Copy, Debug)]
-pub(crate) enum Walk {
-    /// One ray after the other ([`single::trace`]).
-    OneAtATime,
-    /// Several at once, taking turns ([`interleaved::trace_stream`]).
-    SideBySide,
-}
-
-/// Every ray of a stream through the one-ray loop, walked as `walk` says, as a [`Loop`].
+/// Every ray of a stream through the one-ray loop, side by side
+/// ([`interleaved::trace_stream`]), as a [`Loop`].
 struct Rays<'a, 's, N: NodeKind, K, V> {
     tree: &'a WideBvh<N>,
     stream: &'a mut RayStream<'s>,
     scratch: &'a mut WideScratch,
     visitor: &'a mut V,
-    walk: Walk,
     /// Whether the 8-wide box test may use AVX2: false in the baseline copy.
     avx2: bool,
     kernel: std::marker::PhantomData<K>,
@@ -89,31 +80,15 @@ impl<N: NodeKind, K: TriangleTest, V: Visitor> Loop for Rays<'_, '_, N, K, V> {
             ..
         } = self;
         let simd = BoxSimd::detect(self.avx2);
-        match self.walk {
-            Walk::OneAtATime => {
-                for i in 0..stream.len() {
-                    let (ray, id) = (stream.ray(i), stream.id(i));
-                    let stack = &mut scratch.stack;
-                    let tmax = single::trace::<N, K, V>(tree, &ray, id, stack, visitor, simd);
-                    stream.set_tmax(i, tmax);
-                }
-            }
-            Walk::SideBySide => interleaved::trace_stream::<N, K, V>(
-                tree,
-                stream,
-                &mut scratch.stacks,
-                visitor,
-                simd,
-            ),
-        }
+        interleaved::trace_stream::<N, K, V>(tree, stream, &mut scratch.stacks, visitor, simd)
     }
 }
 
-/// Every ray of `stream` through the one-ray loop, walked as `walk` says, in the AVX2 copy if
-/// `avx2` and the CPU has it.
+/// Every ray of `stream` through the one-ray loop, side by side, in the AVX2 copy if `avx2`
+/// and the CPU has it.
 #[inline]
-pub(crate) fn trace_rays<N: NodeKind, K: TriangleTest, V: Visitor>(
-    (avx2, walk): (bool, Walk),
+pub(crate) fn trace_side_by_side<N: NodeKind, K: TriangleTest, V: Visitor>(
+    avx2: bool,
     tree: &WideBvh<N>,
     stream: &mut RayStream<'_>,
     scratch: &mut WideScratch,
@@ -124,7 +99,6 @@ pub(crate) fn trace_rays<N: NodeKind, K: TriangleTest, V: Visitor>(
         stream,
         scratch,
         visitor,
-        walk,
         avx2,
         kernel: std::marker::PhantomData,
     };
@@ -133,32 +107,32 @@ pub(crate) fn trace_rays<N: NodeKind, K: TriangleTest, V: Visitor>(
 
 /// A stream through [`stream::trace_stream`] (nodes shared by the rays that reach them), as a
 /// [`Loop`].
-struct Shared<'a, 's, K, V> {
-    tree: &'a WideTree,
+struct Shared<'a, 's, N: NodeKind, K, V> {
+    tree: &'a WideBvh<N>,
     stream: &'a mut RayStream<'s>,
     scratch: &'a mut WideScratch,
     visitor: &'a mut V,
     kernel: std::marker::PhantomData<K>,
 }
 
-impl<K: TriangleTest, V: Visitor> Loop for Shared<'_, '_, K, V> {
+impl<N: NodeKind, K: TriangleTest, V: Visitor> Loop for Shared<'_, '_, N, K, V> {
     type Output = ();
     #[inline(always)]
     fn run(self) {
-        stream::trace_stream::<K, V>(self.tree, self.stream, self.scratch, self.visitor)
+        stream::trace_stream::<N, K, V>(self.tree, self.stream, self.scratch, self.visitor)
     }
 }
 
 /// [`stream::trace_stream`], in the AVX2 copy if `avx2` and the CPU has it.
 #[inline]
-pub(crate) fn trace_shared<K: TriangleTest, V: Visitor>(
+pub(crate) fn trace_shared<N: NodeKind, K: TriangleTest, V: Visitor>(
     avx2: bool,
-    tree: &WideTree,
+    tree: &WideBvh<N>,
     stream: &mut RayStream<'_>,
     scratch: &mut WideScratch,
     visitor: &mut V,
 ) {
-    let task = Shared::<K, V> {
+    let task = Shared::<N, K, V> {
         tree,
         stream,
         scratch,

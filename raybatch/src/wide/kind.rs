@@ -1,6 +1,6 @@
-//! What the wide walks need of a node, so that one tree type, one collapse, one one-ray loop
-//! and one side-by-side engine serve nodes of four children ([`WideNode`], the default tree,
-//! with its own stream engine) and of eight ([`WideNode8`], for single rays).
+//! What the wide walks need of a node, so that one tree type, one collapse, one one-ray loop,
+//! one stream engine and one side-by-side engine serve nodes of four children ([`WideNode`],
+//! the default tree) and of eight ([`WideNode8`], for single rays).
 //!
 //! Eight children take about a third fewer node visits per walk (12.8 -> 8.8 per incoherent
 //! fandisk ray; each a dependent load: the one-ray loop is bound by their latency, not by its
@@ -12,6 +12,7 @@ use std::fmt::Debug;
 use super::node::{WideNode, WideRay};
 use super::node8::WideNode8;
 use super::stack::Stack;
+use super::stream::StreamPlanes;
 use super::{WideBvh, WideScratch};
 use crate::accel::RayStream;
 use crate::geom::{Aabb, TriangleTest};
@@ -52,6 +53,24 @@ pub(crate) mod layout {
 
         /// Prefetches the node's cache lines.
         fn prefetch(&self);
+
+        /// The child boxes' planes as rays of direction octant `octant` meet them, lane `k`
+        /// for slot `k`: the stream engine picks them once per node for eight rays at a time.
+        fn stream_planes(&self, octant: u32) -> StreamPlanes;
+
+        /// Which child boxes `ray` enters within `[tmin, tmax]` (bit `k` for slot `k`): the
+        /// stream engine's test for the rays it does not take eight at a time.
+        fn ray_mask(&self, ray: &WideRay, tmax: f32) -> u32;
+
+        /// The child word of slot `slot`.
+        fn child(&self, slot: usize) -> u32;
+
+        /// The number of slots in use (slots are filled from 0 up).
+        fn used_slots(&self) -> usize;
+
+        /// Every slot, nearest first for rays of octant mask `octant_mask` (`1 << octant`) or
+        /// in slot order for mask 0 (mixed octants), `WIDTH.trailing_zeros()` bits each.
+        fn stream_order(&self, octant_mask: u8) -> u32;
 
         /// Runs a batch's stream of rays through `tree` with the layout's own batched engine,
         /// for the streams its tree does not walk side by side (`WideBvh::walks_side_by_side`).

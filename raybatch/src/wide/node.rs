@@ -27,6 +27,7 @@ use glam::{Vec3, Vec4};
 
 use super::kind::layout::Layout;
 use super::stack::Stack;
+use super::stream::StreamPlanes;
 use super::{WideBvh, WideScratch, dispatch};
 use crate::accel::RayStream;
 use crate::bvh::ordering::octant_diagonal;
@@ -102,16 +103,6 @@ impl WideNode {
     #[inline(always)]
     pub(crate) fn order(&self, octant: u32) -> u8 {
         self.order[octant as usize & 7]
-    }
-
-    /// The used slots nearest first for rays of octant mask `octant_mask` (`1 << octant`), or
-    /// in slot order for mask 0 (rays of mixed octants).
-    pub(crate) fn nearest_first(&self, octant_mask: u8) -> impl DoubleEndedIterator<Item = usize> {
-        let byte = match octant_mask {
-            0 => 0b11_10_01_00,
-            mask => self.order[mask.trailing_zeros() as usize & 7],
-        };
-        (0..self.used as usize).map(move |k| ((byte >> (2 * k)) & 3) as usize)
     }
 
     /// The box of slot `slot`.
@@ -289,6 +280,42 @@ impl Layout for WideNode {
         prefetch(&self.bounds[4]);
     }
 
+    fn stream_planes(&self, octant: u32) -> StreamPlanes {
+        let planes = self.planes(octant);
+        let lanes = |row: Vec4| {
+            let mut lanes = [0.0; 8];
+            lanes[..WIDTH].copy_from_slice(&row.to_array());
+            lanes
+        };
+        StreamPlanes {
+            near: planes.near.map(lanes),
+            far: planes.far.map(lanes),
+        }
+    }
+
+    #[inline(always)]
+    fn ray_mask(&self, ray: &WideRay, tmax: f32) -> u32 {
+        ray.hits(self, tmax).0
+    }
+
+    #[inline(always)]
+    fn child(&self, slot: usize) -> u32 {
+        self.child[slot]
+    }
+
+    #[inline(always)]
+    fn used_slots(&self) -> usize {
+        self.used as usize
+    }
+
+    #[inline(always)]
+    fn stream_order(&self, octant_mask: u8) -> u32 {
+        match octant_mask {
+            0 => 0b11_10_01_00,
+            mask => u32::from(self.order(mask.trailing_zeros())),
+        }
+    }
+
     /// Nodes shared by the rays that reach them.
     fn trace_own_stream<K: TriangleTest, V: Visitor>(
         tree: &WideBvh<Self>,
@@ -296,7 +323,7 @@ impl Layout for WideNode {
         scratch: &mut WideScratch,
         visitor: &mut V,
     ) {
-        dispatch::trace_shared::<K, V>(true, tree, stream, scratch, visitor)
+        dispatch::trace_shared::<Self, K, V>(true, tree, stream, scratch, visitor)
     }
 }
 
@@ -317,11 +344,15 @@ pub(crate) mod tests {
             node.set(slot, &Aabb::new(min, min + 0.5), slot as u32 + 10);
         }
         node.order_children();
-        let order = |mask: u8| node.nearest_first(mask).collect::<Vec<_>>();
-        // Octant 0: +x, +y, +z; octant 1 (bit 0): -x.
-        assert_eq!(order(1 << 0), [1, 2, 0]);
-        assert_eq!(order(1 << 1), [0, 2, 1]);
-        assert_eq!(order(0), [0, 1, 2]);
+        let order = |mask: u8| -> Vec<u32> {
+            let word = node.stream_order(mask);
+            (0..WIDTH as u32).map(|k| (word >> (2 * k)) & 3).collect()
+        };
+        // Octant 0: +x, +y, +z; octant 1 (bit 0): -x. The unused slot comes last.
+        assert_eq!(order(1 << 0), [1, 2, 0, 3]);
+        assert_eq!(order(1 << 1), [0, 2, 1, 3]);
+        assert_eq!(order(0), [0, 1, 2, 3]);
+        assert_eq!(node.used_slots(), 3);
     }
 
     /// Round `round` of a box-test comparison: `slots` random boxes (flat and degenerate ones

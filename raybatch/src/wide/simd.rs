@@ -31,6 +31,7 @@ use glam::Vec4;
 
 use super::node::{Planes, WideRay};
 use super::node8::WideNode8;
+use super::stream::StreamPlanes;
 use crate::geom::PreparedRay;
 use crate::geom::aabb::EXIT_SCALE;
 pub(crate) use crate::x86::Avx2;
@@ -100,25 +101,27 @@ unsafe fn slabs8_avx2(ray: &WideRay, node: &WideNode8, tmax: f32) -> (u32, [f32;
     (mask, entries)
 }
 
-/// The stream split's box tests eight rays at a time, twin of the one-ray-at-a-time loop
+/// The stream split's box tests eight rays at a time, twin of its one-ray-at-a-time loop
 /// (`stream::masks_one_by_one`, compared by `stream::tests`): for the first `8 * (ids.len() / 8)`
-/// rays of `ids` (indices into `rays`, all of the octant `planes` were picked for), writes one
-/// `u32` per eight rays to `group_bits` (byte `k`: which of the eight enter child `k`) and
-/// returns how many rays that was and the number entering each child in 32-bit fields.
+/// rays of `ids` (indices into `rays`, all of the octant `planes` were picked for), against
+/// the node's first `width` children, writes one `u64` per eight rays to `group_bits` (byte
+/// `k`: which of the eight enter child `k`) and returns how many rays that was and the number
+/// entering each child.
 ///
-/// Lane `j` computes exactly what [`WideRay::hits_planes`] computes for ray `j`, one child at a
-/// time: the same subtractions and products in the same order, the same NaN-keeping `max`/`min`
-/// fold and the same final compare. Panics if an index is out of range.
+/// Lane `j` computes exactly what the one-ray box test ([`WideRay::hits_planes`], or the 8-wide
+/// node's) computes for ray `j`, one child at a time: the same subtractions and products in the
+/// same order, the same NaN-keeping `max`/`min` fold and the same final compare. Panics if an
+/// index is out of range.
 #[inline(always)]
 pub(crate) fn stream_masks(
     _: Avx2,
-    planes: &Planes,
+    (planes, width): (&StreamPlanes, usize),
     rays: &[PreparedRay],
     ids: &[u32],
-    group_bits: &mut [u32],
-) -> (usize, u128) {
+    group_bits: &mut [u64],
+) -> (usize, [u32; 8]) {
     // SAFETY: an `Avx2` exists only if the CPU has AVX2.
-    unsafe { stream_masks_avx2(planes, rays, ids, group_bits) }
+    unsafe { stream_masks_avx2((planes, width.min(8)), rays, ids, group_bits) }
 }
 
 /// See [`stream_masks`].
@@ -128,14 +131,14 @@ pub(crate) fn stream_masks(
 #[inline]
 #[target_feature(enable = "avx2")]
 unsafe fn stream_masks_avx2(
-    planes: &Planes,
+    (planes, width): (&StreamPlanes, usize),
     rays: &[PreparedRay],
     ids: &[u32],
-    group_bits: &mut [u32],
-) -> (usize, u128) {
+    group_bits: &mut [u64],
+) -> (usize, [u32; 8]) {
     let groups = (ids.len() / 8).min(group_bits.len());
     let scale = _mm256_set1_ps(EXIT_SCALE);
-    let mut counts = 0u128;
+    let mut counts = [0u32; 8];
     for g in 0..groups {
         let group = &ids[8 * g..8 * g + 8];
         // Each ray's first 32 bytes are its box-test row (see `PreparedRay`'s layout).
@@ -148,7 +151,7 @@ unsafe fn stream_masks_avx2(
         let (o, inv) = ([ox, oy, oz], [ix, iy, iz]);
         let tmax = _mm256_min_ps(tmax, _mm256_set1_ps(f32::MAX));
         let mut bits = 0;
-        for child in 0..4 {
+        for (child, count) in counts.iter_mut().enumerate().take(width) {
             let (mut near, mut far) = (tmin, tmax);
             for a in 0..3 {
                 let near_plane = _mm256_set1_ps(planes.near[a][child]);
@@ -160,8 +163,8 @@ unsafe fn stream_masks_avx2(
                 far = _mm256_min_ps(exit, far);
             }
             let hit = _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(near, far)) as u32;
-            counts += u128::from(hit.count_ones()) << (32 * child);
-            bits |= hit << (8 * child);
+            *count += hit.count_ones();
+            bits |= u64::from(hit) << (8 * child);
         }
         group_bits[g] = bits;
     }
@@ -177,8 +180,8 @@ unsafe fn stream_masks_avx2(
 pub(crate) fn write_lists(
     _: Avx2,
     ids: &[u32],
-    group_bits: &[u32],
-    cursor: &mut [usize; 4],
+    group_bits: &[u64],
+    cursor: &mut [usize],
     lists: &mut [u32],
 ) {
     // SAFETY: an `Avx2` exists only if the CPU has AVX2.
@@ -193,8 +196,8 @@ pub(crate) fn write_lists(
 #[target_feature(enable = "avx2")]
 unsafe fn write_lists_avx2(
     ids: &[u32],
-    group_bits: &[u32],
-    cursor: &mut [usize; 4],
+    group_bits: &[u64],
+    cursor: &mut [usize],
     lists: &mut [u32],
 ) {
     for (group, &bits) in ids.chunks_exact(8).zip(group_bits) {

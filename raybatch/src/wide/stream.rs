@@ -1,10 +1,11 @@
-//! A stream of rays down the 4-wide tree once (seed 001, with four children per node).
+//! A stream of rays down a wide tree once (seed 001, with four or eight children per node:
+//! the node layout says how one ray and eight rays test its boxes, `kind::layout::Layout`).
 //!
 //! The rays are the batch's prepared records (one cache line each, holding the ray's current
 //! range end: the tree asks for [`crate::accel::StreamLayout::Records`]), walked in place; a
 //! stream in lanes (from a scene) is copied out first. The walk moves only 4-byte ray indices. At a node reached by a
-//! list of rays, each ray tests the four child boxes in one SIMD pass ([`WideRay::hits`], the
-//! one-ray test) and its index is appended to the list of every child it enters; the node's
+//! list of rays, eight rays at a time test each child box (AVX2, the planes picked once per
+//! node for the stream's octant; the node's one-ray test for the rest) and each ray's index is appended to the list of every child it enters; the node's
 //! boxes are read once for the whole list. Child lists are pushed in the node's precomputed
 //! order for the stream's octant, farther child first, so the nearer ones are walked first and
 //! closest-hit rays shrink early. A leaf's triangles are fetched once and tested against every
@@ -14,15 +15,21 @@
 //! -> 99-103 ms, paired runs). Lists shorter than [`BatchOptions::single_ray_below`] finish their subtree
 //! with the one-ray loop.
 //!
+//! Eight children per node (`WideTree8`) take a third fewer levels but test more boxes per ray
+//! and level: the same engine over the 8-wide tree ran 0.88-0.99x the 4-wide tree's (1M
+//! rays, one thread, alternated in one process, best of 5: fandisk and bunny, closest hit on
+//! incoherent rays and any hit on line-of-sight segments), so the 4-wide tree stays the batched
+//! default.
+//!
 //! The index lists live in one buffer used as a stack: a node's child lists are written above
 //! everything pending, and popping a list moves the buffer's logical end back to where its
 //! siblings end, so memory stays proportional to the rays times the depth of the walk.
 //!
 //! [`BatchOptions::single_ray_below`]: crate::batch::BatchOptions::single_ray_below
 
-use super::node::{BoxSimd, Planes, WIDTH, WideNode, WideRay};
+use super::node::{BoxSimd, WideRay};
 use super::stack::Stack;
-use super::{WideScratch, WideTree};
+use super::{NodeKind, WideBvh, WideScratch};
 use crate::accel::RayStream;
 use crate::bvh::nodes::leaf_word;
 #[cfg(target_arch = "x86_64")]
@@ -42,10 +49,23 @@ pub(crate) struct Pending {
     top: u32,
 }
 
+/// The most children a node has: the stream's per-child arrays are this long.
+const MAX_WIDTH: usize = 8;
+
+/// A node's child planes as a stream of rays of one direction octant meets them (see
+/// [`super::node::Planes`]), lane `k` for slot `k` of up to [`MAX_WIDTH`].
+/// (Read by the AVX2 split only, on x86-64.)
+#[derive(Clone, Copy, Debug)]
+#[cfg_attr(not(target_arch = "x86_64"), allow(dead_code))]
+pub(crate) struct StreamPlanes {
+    pub(crate) near: [[f32; MAX_WIDTH]; 3],
+    pub(crate) far: [[f32; MAX_WIDTH]; 3],
+}
+
 /// Runs every ray of `stream` through the tree.
 #[inline(always)]
-pub(crate) fn trace_stream<K: TriangleTest, V: Visitor>(
-    tree: &WideTree,
+pub(crate) fn trace_stream<N: NodeKind, K: TriangleTest, V: Visitor>(
+    tree: &WideBvh<N>,
     stream: &mut RayStream<'_>,
     scratch: &mut WideScratch,
     visitor: &mut V,
@@ -68,14 +88,14 @@ pub(crate) fn trace_stream<K: TriangleTest, V: Visitor>(
     let scratch = (lists, stack);
     if let Some((rays, ids)) = stream.records() {
         // The tree's own layout (`StreamLayout::Records`): walk the records in place.
-        return trace_blocks::<K, V>(tree, setup, rays, ids, scratch, visitor);
+        return trace_blocks::<N, K, V>(tree, setup, rays, ids, scratch, visitor);
     }
     // Lanes (a scene's stream): copy the rays out, walk, copy their range ends back.
     copies.clear();
     copies.extend((0..stream.len()).map(|i| stream.ray(i)));
     batch_ids.clear();
     batch_ids.extend((0..stream.len()).map(|i| stream.id(i)));
-    trace_blocks::<K, V>(tree, setup, copies, batch_ids, scratch, visitor);
+    trace_blocks::<N, K, V>(tree, setup, copies, batch_ids, scratch, visitor);
     for (i, ray) in copies.iter().enumerate() {
         stream.set_tmax(i, ray.tmax);
     }
@@ -92,7 +112,7 @@ pub(crate) struct Lists {
     /// Child masks of the rays of the list being split, one byte per ray.
     masks: Vec<u8>,
     /// The same, eight rays at a time: one byte per child, one bit per ray.
-    group_bits: Vec<u32>,
+    group_bits: Vec<u64>,
     /// The lists waiting.
     pending: Vec<Pending>,
 }
@@ -125,8 +145,8 @@ struct Setup {
 /// Runs `rays` (batch positions `ids`) through the tree in blocks of [`BLOCK`] rays, with the
 /// thread's lists and its one-ray stack (for lists finished one ray at a time).
 #[inline(always)]
-fn trace_blocks<K: TriangleTest, V: Visitor>(
-    tree: &WideTree,
+fn trace_blocks<N: NodeKind, K: TriangleTest, V: Visitor>(
+    tree: &WideBvh<N>,
     setup: Setup,
     rays: &mut [PreparedRay],
     ids: &[u32],
@@ -134,7 +154,7 @@ fn trace_blocks<K: TriangleTest, V: Visitor>(
     visitor: &mut V,
 ) {
     for (rays, ids) in rays.chunks_mut(BLOCK).zip(ids.chunks(BLOCK)) {
-        trace_block::<K, V>(
+        trace_block::<N, K, V>(
             tree,
             setup,
             (rays, ids),
@@ -156,8 +176,8 @@ const _: () = assert!(BLOCK <= u32::MAX as usize);
 
 /// Runs `rays` (batch positions `batch_ids`) through the tree, as one walk.
 #[inline(always)]
-fn trace_block<K: TriangleTest, V: Visitor>(
-    tree: &WideTree,
+fn trace_block<N: NodeKind, K: TriangleTest, V: Visitor>(
+    tree: &WideBvh<N>,
     setup: Setup,
     (rays, batch_ids): (&mut [PreparedRay], &[u32]),
     (lists, stack): (&mut Lists, &mut Stack),
@@ -191,6 +211,7 @@ fn trace_block<K: TriangleTest, V: Visitor>(
         #[cfg(target_arch = "x86_64")]
         avx2: *avx2,
         tree,
+        simd: BoxSimd::detect(true),
         octant_mask: setup.octant_mask,
         single_ray_below: setup.single_ray_below,
         rays,
@@ -210,10 +231,13 @@ fn trace_block<K: TriangleTest, V: Visitor>(
 }
 
 /// The state of one stream's walk.
-struct Walk<'a> {
+struct Walk<'a, N: NodeKind> {
     #[cfg(target_arch = "x86_64")]
     avx2: Option<crate::x86::Avx2>,
-    tree: &'a WideTree,
+    tree: &'a WideBvh<N>,
+    /// The one-ray box test (8 lanes with AVX2 where the CPU has it), for the rays the split
+    /// does not take eight at a time and the lists finished one ray at a time.
+    simd: BoxSimd,
     /// The rays' octant mask (0 when their octants differ: children in slot order).
     octant_mask: u8,
     single_ray_below: usize,
@@ -229,13 +253,13 @@ struct Walk<'a> {
     masks: &'a mut Vec<u8>,
     /// The same, eight rays at a time (written and read on x86-64 only).
     #[cfg_attr(not(target_arch = "x86_64"), allow(dead_code))]
-    group_bits: &'a mut Vec<u32>,
+    group_bits: &'a mut Vec<u64>,
     pending: &'a mut Vec<Pending>,
     /// The one-ray loop's stack.
     stack: &'a mut Stack,
 }
 
-impl Walk<'_> {
+impl<N: NodeKind> Walk<'_, N> {
     /// Prefetches what the next two lists waiting read first: the node or the leaf's
     /// triangles of the next (the second link of a leaf's read chain, whose first was
     /// prefetched a visit earlier), the first link of the one after. A visit tests many rays,
@@ -270,8 +294,8 @@ impl Walk<'_> {
                 let ray = &mut self.rays[i];
                 let id = self.batch_ids[i];
                 let mut tmax = ray.tmax;
-                let wide_ray = WideRay::new(ray, BoxSimd::PORTABLE);
-                super::single::trace_from::<WideNode, K, V>(
+                let wide_ray = WideRay::new(ray, self.simd);
+                super::single::trace_from::<N, K, V>(
                     self.tree,
                     (ray, &wide_ray, id),
                     list.word,
@@ -286,25 +310,21 @@ impl Walk<'_> {
         }
     }
 
-    /// Tests every ray of the list against the node's four boxes and pushes one list per child
+    /// Tests every ray of the list against the node's boxes and pushes one list per child
     /// entered, nearest child last (popped first).
     #[inline(always)]
     fn split(&mut self, word: u32, start: usize, end: usize) {
         let node = &self.tree.nodes[word as usize];
-        let (grouped, counts) = match self.octant_mask {
-            0 => self.child_masks::<false>(node, 0, start, end),
-            // One octant for all: the planes are picked once for the whole list.
-            mask => self.child_masks::<true>(node, mask.trailing_zeros(), start, end),
-        };
+        let (grouped, counts) = self.child_masks(node, start, end);
         // Child lists at the top of the buffer, in slot order. Writes run past a list's end
         // (each ray is written to every list and kept where its mask bit is set; eight rays are
         // written at once), so each list has `SPARE` slots after it.
         let top = self.top;
-        let mut cursor = [0usize; WIDTH];
+        let mut cursor = [0usize; MAX_WIDTH];
         let mut next = top;
-        for slot in 0..WIDTH {
+        for slot in 0..N::WIDTH {
             cursor[slot] = next - top;
-            next += counts[slot] + SPARE;
+            next += counts[slot] as usize + SPARE;
         }
         if self.ids.len() < next {
             self.ids.resize(next, 0);
@@ -315,20 +335,23 @@ impl Walk<'_> {
         #[cfg(target_arch = "x86_64")]
         if let Some(avx2) = self.avx2.filter(|_| grouped > 0) {
             let groups = &self.group_bits[..grouped / 8];
-            super::simd::write_lists(avx2, &rays[..grouped], groups, &mut cursor, free);
+            let cursor = &mut cursor[..N::WIDTH];
+            super::simd::write_lists(avx2, &rays[..grouped], groups, cursor, free);
         }
         for (&ray, &mask) in rays[grouped..].iter().zip(&self.masks[grouped..]) {
-            for (slot, at) in cursor.iter_mut().enumerate() {
+            for (slot, at) in cursor[..N::WIDTH].iter_mut().enumerate() {
                 free[*at] = ray;
                 *at += ((mask >> slot) & 1) as usize;
             }
         }
-        let cursor = cursor.map(|at| at + top);
-        for slot in node.nearest_first(self.octant_mask).rev() {
-            let (list_end, count) = (cursor[slot] as u32, counts[slot] as u32);
+        let order = node.stream_order(self.octant_mask);
+        let bits = N::WIDTH.trailing_zeros();
+        for k in (0..N::WIDTH as u32).rev() {
+            let slot = (order >> (bits * k)) as usize & (N::WIDTH - 1);
+            let (list_end, count) = ((cursor[slot] + top) as u32, counts[slot]);
             if count > 0 {
                 self.pending.push(Pending {
-                    word: node.child[slot],
+                    word: node.child(slot),
                     start: list_end - count,
                     end: list_end,
                     top: next as u32,
@@ -337,48 +360,38 @@ impl Walk<'_> {
         }
     }
 
-    /// Which of the four boxes each ray enters, and the number of rays entering each child.
+    /// Which of the node's boxes each ray enters, and the number of rays entering each child.
     /// Returns how many rays (a multiple of eight) went through the eight-at-a-time test, whose
-    /// masks are in `group_bits` (one `u32` per eight rays, one byte per child, one bit per
+    /// masks are in `group_bits` (one `u64` per eight rays, one byte per child, one bit per
     /// ray); the others' masks are in `masks[grouped..end - start]` (one byte per ray, one bit
-    /// per child). With `ONE_OCTANT` every ray has octant `octant` and meets the node's planes
-    /// the same way, so they are picked once.
+    /// per child). Eight at a time needs one octant for all (the planes are picked once).
     #[inline(always)]
-    fn child_masks<const ONE_OCTANT: bool>(
-        &mut self,
-        node: &WideNode,
-        octant: u32,
-        start: usize,
-        end: usize,
-    ) -> (usize, [usize; WIDTH]) {
-        let shared = node.planes(octant);
+    fn child_masks(&mut self, node: &N, start: usize, end: usize) -> (usize, [u32; MAX_WIDTH]) {
         let ids = &self.ids[start..end];
         if self.masks.len() < ids.len() {
             self.masks.resize(ids.len(), 0);
         }
-        // Counts of the four children in 32-bit fields: one add per ray.
         #[cfg(target_arch = "x86_64")]
-        let (grouped, packed) = match (ONE_OCTANT, self.avx2) {
-            (true, Some(avx2)) => {
+        let (grouped, counts) = match (self.octant_mask, self.avx2) {
+            (mask, Some(avx2)) if mask != 0 => {
                 if self.group_bits.len() < ids.len() / 8 {
                     self.group_bits.resize(ids.len() / 8, 0);
                 }
-                super::simd::stream_masks(avx2, &shared, self.rays, ids, self.group_bits)
+                let planes = node.stream_planes(mask.trailing_zeros());
+                let bits = &mut *self.group_bits;
+                let used = node.used_slots();
+                super::simd::stream_masks(avx2, (&planes, used), self.rays, ids, bits)
             }
-            _ => (0, 0),
+            _ => (0, [0; MAX_WIDTH]),
         };
         #[cfg(not(target_arch = "x86_64"))]
-        let (grouped, packed) = (0, 0);
-        let packed = packed
-            + masks_one_by_one::<ONE_OCTANT>(
-                node,
-                (octant, &shared),
-                self.rays,
-                &ids[grouped..],
-                &mut self.masks[grouped..],
-            );
-        let counts = [0, 1, 2, 3].map(|slot| (packed >> (32 * slot)) as u32 as usize);
-        (grouped, counts)
+        let (grouped, counts) = (0, [0; MAX_WIDTH]);
+        let rest = (&ids[grouped..], &mut self.masks[grouped..]);
+        let rest = masks_one_by_one(node, self.simd, self.rays, rest);
+        (
+            grouped,
+            std::array::from_fn(|slot| counts[slot] + rest[slot]),
+        )
     }
 
     /// Tests the leaf's triangles against every ray of the list, fetching each triangle once.
@@ -466,82 +479,62 @@ impl Walk<'_> {
     }
 }
 
-/// The child masks of the rays `ids` (into `rays`), into `masks`, one ray at a time: the
-/// portable way, and the rays left over by the eight-at-a-time version. Returns the number of
-/// rays entering each child in 32-bit fields. With `ONE_OCTANT` every ray has octant `octant`
-/// and meets the node's planes as `shared`.
+/// The child masks of the rays `ids` (into `rays`), into `masks`, one ray at a time with the
+/// node's one-ray box test: the portable way, and the rays left over by the eight-at-a-time
+/// version. Returns the number of rays entering each child.
 #[inline(always)]
-fn masks_one_by_one<const ONE_OCTANT: bool>(
-    node: &WideNode,
-    (octant, shared): (u32, &Planes),
+fn masks_one_by_one<N: NodeKind>(
+    node: &N,
+    simd: BoxSimd,
     rays: &[PreparedRay],
-    ids: &[u32],
-    masks: &mut [u8],
-) -> u128 {
-    let mut packed = 0u128;
+    (ids, masks): (&[u32], &mut [u8]),
+) -> [u32; MAX_WIDTH] {
+    let mut counts = [0; MAX_WIDTH];
     for (out, &i) in masks.iter_mut().zip(ids) {
         let ray = &rays[i as usize];
-        let wide = WideRay::new(ray, BoxSimd::PORTABLE);
-        let planes = if ONE_OCTANT {
-            debug_assert_eq!(wide.octant, octant);
-            *shared
-        } else {
-            node.planes(wide.octant)
-        };
-        let (mask, _) = wide.hits_planes(&planes, ray.tmax);
-        packed += SPREAD[mask as usize & 15];
+        let mask = node.ray_mask(&WideRay::new(ray, simd), ray.tmax);
+        for (slot, count) in counts.iter_mut().enumerate().take(N::WIDTH) {
+            *count += (mask >> slot) & 1;
+        }
         *out = mask as u8;
     }
-    packed
+    counts
 }
 
 /// Slots after each child list for the writes past its end: eight rays are written at once.
 const SPARE: usize = 8;
 
-/// For each 4-bit child mask, a 1 in the 32-bit field of every child it enters.
-const SPREAD: [u128; 16] = {
-    let mut table = [0u128; 16];
-    let mut mask = 0;
-    while mask < 16 {
-        let mut slot = 0;
-        while slot < 4 {
-            if mask & (1 << slot) != 0 {
-                table[mask] |= 1 << (32 * slot);
-            }
-            slot += 1;
-        }
-        mask += 1;
-    }
-    table
-};
-
 #[cfg(all(test, target_arch = "x86_64"))]
 mod tests {
     use glam::Vec3;
 
+    use super::super::node::WideNode;
+    use super::super::node8::WideNode8;
     use super::super::simd::{self, Avx2};
     use super::*;
     use crate::geom::{Aabb, Ray};
     use crate::test_support::TestRng;
 
     /// A node of `used` random boxes (some flat), ordered.
-    fn random_node(rng: &mut TestRng, used: usize) -> WideNode {
-        let mut node = WideNode::empty();
+    fn random_node<N: NodeKind>(rng: &mut TestRng, used: usize) -> (N, Vec<Aabb>) {
+        let mut node = N::empty();
+        let mut boxes = Vec::new();
         for slot in 0..used {
             let a = rng.vec3(2.0);
             let mut b = a + rng.vec3(1.0).abs();
             if slot == 1 {
                 b.z = a.z;
             }
-            node.set(slot, &Aabb::new(a.min(b), a.max(b)), slot as u32);
+            boxes.push(Aabb::new(a.min(b), a.max(b)));
+            node.set(slot, &boxes[slot], slot as u32);
         }
         node.order_children();
-        node
+        (node, boxes)
     }
 
     /// A ray of direction octant `octant`: some components zero (signed by the octant), some
     /// origins on a box's plane, finite and infinite range ends.
-    fn random_ray(rng: &mut TestRng, octant: u32, node: &WideNode, k: usize) -> PreparedRay {
+    fn random_ray(rng: &mut TestRng, octant: u32, plane_y: f32, k: usize) -> PreparedRay {
         let mut dir = rng.vec3(1.0).abs();
         if k.is_multiple_of(5) {
             dir[k % 3] = 0.0;
@@ -559,7 +552,7 @@ mod tests {
         }
         let mut origin = rng.vec3(3.0);
         if k.is_multiple_of(7) {
-            origin.y = node.slot_bounds(0).min.y;
+            origin.y = plane_y;
         }
         let tmax = if k.is_multiple_of(3) {
             f32::INFINITY
@@ -575,7 +568,8 @@ mod tests {
     }
 
     /// The split's eight-at-a-time box tests and list writes (AVX2) give the same masks,
-    /// counts and lists as the one-ray-at-a-time loops, on lists of every length.
+    /// counts and lists as the one-ray-at-a-time loops, on lists of every length, for nodes of
+    /// four and of eight children; and the one-ray masks are the scalar slab test's.
     #[test]
     fn eight_at_a_time_equals_one_at_a_time() {
         let Some(avx2) = Avx2::detect() else {
@@ -585,48 +579,58 @@ mod tests {
             );
             return;
         };
+        eight_at_a_time_equals_one_at_a_time_for::<WideNode>(avx2);
+        eight_at_a_time_equals_one_at_a_time_for::<WideNode8>(avx2);
+    }
+
+    fn eight_at_a_time_equals_one_at_a_time_for<N: NodeKind>(avx2: Avx2) {
         let mut rng = TestRng::new(5);
         for round in 0..3000 {
-            let node = random_node(&mut rng, 1 + round % WIDTH);
+            let (node, boxes) = random_node::<N>(&mut rng, 1 + round % N::WIDTH);
+            assert_eq!(node.used_slots(), boxes.len());
             let octant = (round % 8) as u32;
             let rays: Vec<PreparedRay> = (0..64)
-                .map(|k| random_ray(&mut rng, octant, &node, k))
+                .map(|k| random_ray(&mut rng, octant, boxes[0].min.y, k))
                 .collect();
             assert!(rays.iter().all(|r| r.octant_mask == 1 << octant));
             let n = round % 40;
             let ids: Vec<u32> = (0..n).map(|_| rng.range(0.0, 63.99) as u32).collect();
-            let planes = node.planes(octant);
+            let planes = node.stream_planes(octant);
 
-            let mut bits = vec![0u32; n / 8];
-            let (grouped, packed) = simd::stream_masks(avx2, &planes, &rays, &ids, &mut bits);
+            let mut bits = vec![0u64; n / 8];
+            let (grouped, counts) =
+                simd::stream_masks(avx2, (&planes, node.used_slots()), &rays, &ids, &mut bits);
             assert_eq!(grouped, n / 8 * 8);
             let mut masks = vec![0u8; n];
-            let expected = masks_one_by_one::<true>(
-                &node,
-                (octant, &planes),
-                &rays,
-                &ids[..grouped],
-                &mut masks,
-            );
-            assert_eq!(packed, expected, "counts, round {round}");
+            let one_by_one = (&ids[..grouped], &mut masks[..grouped]);
+            let expected = masks_one_by_one(&node, BoxSimd::detect(true), &rays, one_by_one);
+            assert_eq!(counts, expected, "counts, round {round}");
             for (j, &mask) in masks[..grouped].iter().enumerate() {
                 let group = bits[j / 8];
-                let from_bits = (0..4).fold(0, |m, c| m | ((group >> (8 * c + j % 8)) & 1) << c);
-                assert_eq!(from_bits, u32::from(mask), "ray {j}, round {round}");
+                let from_bits =
+                    (0..N::WIDTH).fold(0, |m, c| m | ((group >> (8 * c + j % 8)) & 1) << c);
+                assert_eq!(from_bits, u64::from(mask), "ray {j}, round {round}");
+                let ray = &rays[ids[j] as usize];
+                let scalar = (0..boxes.len()).fold(0, |m, c| {
+                    m | u8::from(boxes[c].entry(ray, ray.tmax) < f32::INFINITY) << c
+                });
+                assert_eq!(
+                    mask, scalar,
+                    "ray {j} against the scalar test, round {round}"
+                );
             }
 
             // Lists: each of the grouped rays to every child it enters, in order.
-            let counts = [0, 1, 2, 3].map(|c| (packed >> (32 * c)) as u32 as usize);
-            let mut cursor = [0usize; 4];
+            let mut cursor = vec![0usize; N::WIDTH];
             let mut next = 0;
-            for c in 0..4 {
+            for c in 0..N::WIDTH {
                 cursor[c] = next;
-                next += counts[c] + SPARE;
+                next += counts[c] as usize + SPARE;
             }
-            let starts = cursor;
+            let starts = cursor.clone();
             let mut lists = vec![u32::MAX; next];
             simd::write_lists(avx2, &ids[..grouped], &bits, &mut cursor, &mut lists);
-            for c in 0..4 {
+            for c in 0..N::WIDTH {
                 let expected: Vec<u32> = (0..grouped)
                     .filter(|&j| masks[j] & (1 << c) != 0)
                     .map(|j| ids[j])
