@@ -14,7 +14,7 @@ use raybatch::query::single::trace_one;
 use raybatch::zbt::ZbtOptions;
 use raybatch::{
     AabbTree, Accel, AccelKind, BuildOptions, Hit, HybridTree, Kernel, Mesh, QuantizedAabbTree,
-    Ray, RayQueries, Visitor, WideTree, WideTree8, ZeroByteTree,
+    QuantizedWideTree, Ray, RayQueries, Visitor, WideTree, WideTree8, ZeroByteTree,
 };
 use raybatch::{GridOptions, KdTree, SpatialHash, UniformGrid};
 
@@ -110,6 +110,11 @@ fn first_n_hits_visitor_on_every_structure() {
             AccelKind::Bvh8 => check(
                 name,
                 &WideTree8::build(mesh.clone(), &options).unwrap(),
+                &rays,
+            ),
+            AccelKind::Bvh4q => check(
+                name,
+                &QuantizedWideTree::build(mesh.clone(), &options).unwrap(),
                 &rays,
             ),
             AccelKind::Zbt | AccelKind::ZbtNoCache => {

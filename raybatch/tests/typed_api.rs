@@ -16,8 +16,8 @@ use raybatch::permuted::Permuted;
 use raybatch::zbt::{HybridOptions, ZbtOptions};
 use raybatch::{
     AabbTree, Accel, AccelKind, AnyAccel, BatchOptions, BatchOrdering, BatchQueries, BuildOptions,
-    ChildOrdering, Footprint, Hit, HybridTree, Kernel, Mesh, QuantizedAabbTree, Ray, RayQueries,
-    WideTree, WideTree8, ZeroByteTree,
+    ChildOrdering, Footprint, Hit, HybridTree, Kernel, Mesh, QuantizedAabbTree, QuantizedWideTree,
+    Ray, RayQueries, WideTree, WideTree8, ZeroByteTree,
 };
 use raybatch::{GridOptions, KdTree, SpatialHash, UniformGrid};
 
@@ -183,6 +183,10 @@ fn typed_queries_match_any_accel() {
                     }
                     AccelKind::Bvh8 => {
                         let typed = WideTree8::build(mesh, &options).unwrap();
+                        compare_typed(&name, &typed, &any, &rays)
+                    }
+                    AccelKind::Bvh4q => {
+                        let typed = QuantizedWideTree::build(mesh, &options).unwrap();
                         compare_typed(&name, &typed, &any, &rays)
                     }
                     AccelKind::Zbt | AccelKind::ZbtNoCache => {

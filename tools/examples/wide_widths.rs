@@ -1,8 +1,8 @@
-//! The 4-wide and the 8-wide tree, per ray and batched (all rays in one call, one thread),
-//! alternated within one process, best of `ROUNDS` each: closest hit on incoherent rays and
-//! any hit on line-of-sight segments. Every variant's answers are checked equal to the 4-wide
-//! tree's per-ray answers. Ratios of two runs made side by side hold on a noisy machine where
-//! separate runs drift.
+//! The wide trees (4-wide, 8-wide, quantized 4-wide), per ray and batched (all rays in one
+//! call, one thread), alternated within one process, best of `ROUNDS` each: closest hit on
+//! incoherent rays and any hit on line-of-sight segments. Every variant's answers are checked
+//! equal to the 4-wide tree's per-ray answers. Ratios of runs made side by side hold on a
+//! noisy machine where separate runs drift.
 //!
 //! `cargo run --release -p raybatch-tools --example wide_widths [-- SCENE|FILE.obj [RAYS
 //! [ROUNDS]]]`
@@ -10,17 +10,58 @@
 use std::time::Instant;
 
 use raybatch::{
-    BatchOptions, BatchQueries, BuildOptions, Hit, Ray, RayQueries, WideTree, WideTree8,
+    BatchOptions, BatchQueries, BuildOptions, Footprint, Hit, QuantizedWideTree, Ray, RayQueries,
+    WideTree, WideTree8,
 };
 use raybatch_tools::scenes::{self, RaySet};
 
-/// The four ways of answering a query, in the order they are timed and printed.
-const VARIANTS: [&str; 4] = [
-    "bvh4 per ray",
-    "bvh8 per ray",
-    "bvh4 batched",
-    "bvh8 batched",
-];
+/// A tree's closest-hit and any-hit answers, per ray or batched (object-safe, so the trees
+/// can sit in one array).
+trait Answers: Sync {
+    fn label(&self) -> &'static str;
+    fn bytes(&self) -> usize;
+    fn closest_hits(&self, batched: bool, rays: &[Ray]) -> Vec<Option<(u32, u32)>>;
+    fn occlusion(&self, batched: bool, segments: &[Ray]) -> Vec<bool>;
+}
+
+impl<T: BatchQueries + RayQueries + Footprint + Sync> Answers for T {
+    fn label(&self) -> &'static str {
+        self.name()
+    }
+
+    fn bytes(&self) -> usize {
+        self.heap_bytes()
+    }
+
+    /// Closest hits, as bits (so that equal means bit-identical).
+    fn closest_hits(&self, batched: bool, rays: &[Ray]) -> Vec<Option<(u32, u32)>> {
+        let mut hits: Vec<Option<Hit>> = vec![None; rays.len()];
+        if batched {
+            self.cast_rays_with(rays, &mut hits, &BatchOptions::default())
+                .unwrap();
+        } else {
+            hits.iter_mut()
+                .zip(rays)
+                .for_each(|(h, r)| *h = self.cast_ray(r));
+        }
+        hits.iter()
+            .map(|h| h.map(|h| (h.triangle, h.t.to_bits())))
+            .collect()
+    }
+
+    fn occlusion(&self, batched: bool, segments: &[Ray]) -> Vec<bool> {
+        let mut occluded = vec![false; segments.len()];
+        if batched {
+            self.occluded_batch(segments, &mut occluded).unwrap();
+        } else {
+            occluded
+                .iter_mut()
+                .zip(segments)
+                .for_each(|(o, s)| *o = self.occluded(s));
+        }
+        occluded
+    }
+}
 
 fn main() {
     let mut args = std::env::args().skip(1);
@@ -35,23 +76,41 @@ fn main() {
         .unwrap();
     pool.install(|| {
         let options = BuildOptions::default();
-        let trees = (
-            WideTree::build(scene.mesh.clone(), &options).unwrap(),
-            WideTree8::build(scene.mesh.clone(), &options).unwrap(),
+        let mesh = &scene.mesh;
+        let trees: [Box<dyn Answers>; 3] = [
+            Box::new(WideTree::build(mesh.clone(), &options).unwrap()),
+            Box::new(WideTree8::build(mesh.clone(), &options).unwrap()),
+            Box::new(QuantizedWideTree::build(mesh.clone(), &options).unwrap()),
+        ];
+        for tree in &trees {
+            let per_triangle = tree.bytes() as f64 / mesh.triangle_count() as f64;
+            println!("{}: {per_triangle:.1} bytes per triangle", tree.label());
+        }
+        let closest = scenes::generate(RaySet::Incoherent, mesh, scene.kind, count, 7);
+        let times = race(rounds, |v| trees[v / 2].closest_hits(v % 2 == 1, &closest));
+        report(
+            &trees,
+            scene.name,
+            "closest hit, incoherent",
+            (count, rounds),
+            &times,
         );
-        let closest = scenes::generate(RaySet::Incoherent, &scene.mesh, scene.kind, count, 7);
-        let times = race(rounds, |v| closest_hits(&trees, v, &closest));
-        report(scene.name, "closest hit, incoherent", count, rounds, &times);
-        let segments = scenes::generate(RaySet::LineOfSight, &scene.mesh, scene.kind, count, 7);
-        let times = race(rounds, |v| occlusion(&trees, v, &segments));
-        report(scene.name, "any hit, line of sight", count, rounds, &times);
+        let segments = scenes::generate(RaySet::LineOfSight, mesh, scene.kind, count, 7);
+        let times = race(rounds, |v| trees[v / 2].occlusion(v % 2 == 1, &segments));
+        report(
+            &trees,
+            scene.name,
+            "any hit, line of sight",
+            (count, rounds),
+            &times,
+        );
     });
 }
 
-/// Runs every variant `rounds` times in turn; returns each one's best time in ms. Panics if a
-/// variant's answers differ from the first's.
-fn race<T: PartialEq>(rounds: usize, mut run: impl FnMut(usize) -> T) -> [f64; 4] {
-    let mut best = [f64::INFINITY; 4];
+/// Runs every variant (tree `v / 2`, batched if `v` is odd) `rounds` times in turn; returns
+/// each one's best time in ms. Panics if a variant's answers differ from the first's.
+fn race<T: PartialEq>(rounds: usize, mut run: impl FnMut(usize) -> T) -> [f64; 6] {
+    let mut best = [f64::INFINITY; 6];
     let mut reference = None;
     for _ in 0..rounds {
         for (v, best) in best.iter_mut().enumerate() {
@@ -60,65 +119,30 @@ fn race<T: PartialEq>(rounds: usize, mut run: impl FnMut(usize) -> T) -> [f64; 4
             *best = best.min(start.elapsed().as_secs_f64() * 1e3);
             match &reference {
                 None => reference = Some(answers),
-                Some(first) => assert!(*first == answers, "{} answers differ", VARIANTS[v]),
+                Some(first) => assert!(*first == answers, "variant {v}: answers differ"),
             }
         }
     }
     best
 }
 
-/// Closest hits of `rays` through variant `v`, as bits (so that equal means bit-identical).
-fn closest_hits(
-    (bvh4, bvh8): &(WideTree, WideTree8),
-    v: usize,
-    rays: &[Ray],
-) -> Vec<Option<(u32, u32)>> {
-    let mut hits: Vec<Option<Hit>> = vec![None; rays.len()];
-    let options = BatchOptions::default();
-    match v {
-        0 => hits
-            .iter_mut()
-            .zip(rays)
-            .for_each(|(h, r)| *h = bvh4.cast_ray(r)),
-        1 => hits
-            .iter_mut()
-            .zip(rays)
-            .for_each(|(h, r)| *h = bvh8.cast_ray(r)),
-        2 => bvh4.cast_rays_with(rays, &mut hits, &options).unwrap(),
-        _ => bvh8.cast_rays_with(rays, &mut hits, &options).unwrap(),
-    }
-    hits.iter()
-        .map(|h| h.map(|h| (h.triangle, h.t.to_bits())))
-        .collect()
-}
-
-/// Occlusion of `segments` through variant `v`.
-fn occlusion((bvh4, bvh8): &(WideTree, WideTree8), v: usize, segments: &[Ray]) -> Vec<bool> {
-    let mut occluded = vec![false; segments.len()];
-    match v {
-        0 => occluded
-            .iter_mut()
-            .zip(segments)
-            .for_each(|(o, s)| *o = bvh4.occluded(s)),
-        1 => occluded
-            .iter_mut()
-            .zip(segments)
-            .for_each(|(o, s)| *o = bvh8.occluded(s)),
-        2 => bvh4.occluded_batch(segments, &mut occluded).unwrap(),
-        _ => bvh8.occluded_batch(segments, &mut occluded).unwrap(),
-    }
-    occluded
-}
-
 /// One line per variant: best time and speed relative to the 4-wide tree's per-ray and
 /// batched times.
-fn report(scene: &str, query: &str, count: usize, rounds: usize, times: &[f64; 4]) {
+fn report(
+    trees: &[Box<dyn Answers>; 3],
+    scene: &str,
+    query: &str,
+    (count, rounds): (usize, usize),
+    times: &[f64; 6],
+) {
     println!("{scene}, {query}, {count} rays, one thread, best of {rounds}:");
-    for (name, ms) in VARIANTS.iter().zip(times) {
+    for (v, ms) in times.iter().enumerate() {
+        let how = if v % 2 == 1 { "batched" } else { "per ray" };
         println!(
-            "  {name:<13} {ms:8.1} ms  speed vs bvh4 per ray {:.2}, vs bvh4 batched {:.2}",
+            "  {:<5} {how:<7} {ms:8.1} ms  speed vs bvh4 per ray {:.2}, vs bvh4 batched {:.2}",
+            trees[v / 2].label(),
             times[0] / ms,
-            times[2] / ms,
+            times[1] / ms,
         );
     }
 }

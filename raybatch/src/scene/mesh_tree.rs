@@ -21,7 +21,7 @@ use crate::kdtree::KdTree;
 use crate::mesh::Mesh;
 use crate::permuted::Permuted;
 use crate::scene::error::SceneError;
-use crate::wide::{WideTree, WideTree8};
+use crate::wide::{QuantizedWideTree, WideTree, WideTree8};
 use crate::zbt::{HybridOptions, HybridTree, ZbtOptions, ZeroByteTree};
 
 /// A structure a scene can place as instances: an [`Accel`] over one mesh that knows the
@@ -46,6 +46,7 @@ enum Tree {
     Quantized(QuantizedAabbTree),
     Wide(WideTree),
     Wide8(WideTree8),
+    Wide4q(QuantizedWideTree),
     Zbt(Permuted<ZeroByteTree>),
     Hybrid(Permuted<HybridTree>),
     Grid(UniformGrid),
@@ -87,6 +88,7 @@ impl MeshTree {
             AccelKind::Quantized => Tree::Quantized(QuantizedAabbTree::build(mesh, options)?),
             AccelKind::Bvh4 => Tree::Wide(WideTree::build(mesh, options)?),
             AccelKind::Bvh8 => Tree::Wide8(WideTree8::build(mesh, options)?),
+            AccelKind::Bvh4q => Tree::Wide4q(QuantizedWideTree::build(mesh, options)?),
             AccelKind::Zbt | AccelKind::ZbtNoCache => {
                 let zbt = ZbtOptions {
                     box_cache: kind == AccelKind::Zbt,
@@ -170,8 +172,12 @@ macro_rules! with_tree {
                 let $s = &mut $scratch.wide;
                 $body
             }
-            // The same scratch type: the two wide trees share it.
+            // The same scratch type: the wide trees share it.
             Tree::Wide8($t) => {
+                let $s = &mut $scratch.wide;
+                $body
+            }
+            Tree::Wide4q($t) => {
                 let $s = &mut $scratch.wide;
                 $body
             }
@@ -252,6 +258,7 @@ impl MeshTree {
             Tree::Quantized(t) => t,
             Tree::Wide(t) => t,
             Tree::Wide8(t) => t,
+            Tree::Wide4q(t) => t,
             Tree::Zbt(t) => t,
             Tree::Hybrid(t) => t,
             Tree::Grid(t) => t,

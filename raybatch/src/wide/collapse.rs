@@ -9,6 +9,7 @@
 use super::NodeKind;
 use crate::bvh::build::BuiltTree;
 use crate::bvh::nodes::leaf_word;
+use crate::geom::Aabb;
 
 /// The wide nodes of `built` and the root's child word: a node index, or a leaf word when the
 /// whole tree is one leaf. `None` for an empty tree.
@@ -25,19 +26,23 @@ pub(crate) fn collapse<N: NodeKind>(built: &BuiltTree) -> Option<(Vec<N>, u32)> 
 /// Appends the wide node for binary internal node `index` (and its subtree); returns its index.
 fn collapse_node<N: NodeKind>(built: &BuiltTree, index: u32, nodes: &mut Vec<N>) -> u32 {
     let children = widest_children(built, index, N::WIDTH);
-    let wide = nodes.len() as u32;
-    nodes.push(N::empty());
-    for (slot, &child) in children.iter().enumerate() {
-        let node = &built.nodes[child as usize];
-        let word = if node.first_child == 0 {
-            leaf_word::pack(node.first, node.count)
-        } else {
-            collapse_node(built, child, nodes)
-        };
-        nodes[wide as usize].set(slot, &node.bounds, word);
-    }
-    nodes[wide as usize].order_children();
-    wide
+    let wide = nodes.len();
+    // A placeholder, so that the node keeps its preorder place before its subtrees.
+    nodes.push(N::from_children(&[]));
+    let slots: Vec<(Aabb, u32)> = children
+        .iter()
+        .map(|&child| {
+            let node = &built.nodes[child as usize];
+            let word = if node.first_child == 0 {
+                leaf_word::pack(node.first, node.count)
+            } else {
+                collapse_node(built, child, nodes)
+            };
+            (node.bounds, word)
+        })
+        .collect();
+    nodes[wide] = N::from_children(&slots);
+    wide as u32
 }
 
 /// Up to `width` binary descendants of internal node `index` that together cover it.

@@ -10,6 +10,7 @@
 use std::fmt::Debug;
 
 use super::node::{WideNode, WideRay};
+use super::node4q::QuantizedWideNode;
 use super::node8::WideNode8;
 use super::stack::Stack;
 use super::stream::StreamPlanes;
@@ -24,6 +25,7 @@ pub trait NodeKind: layout::Layout + Clone + Copy + Debug + Send + Sync + 'stati
 
 impl NodeKind for WideNode {}
 impl NodeKind for WideNode8 {}
+impl NodeKind for QuantizedWideNode {}
 
 // The walk's types are the crate's own; the trait cannot be named outside the crate (its module
 // is private), so nothing outside can call these methods.
@@ -40,12 +42,9 @@ pub(crate) mod layout {
         /// The layout's name in error messages.
         const FORMAT: &'static str;
 
-        /// A node whose slots all hold empty boxes (which no ray enters).
-        fn empty() -> Self;
-        /// Puts `bounds` and `word` in slot `slot` (slots are filled from 0 up).
-        fn set(&mut self, slot: usize, bounds: &Aabb, word: u32);
-        /// Computes the per-octant child orders from the slots set so far.
-        fn order_children(&mut self);
+        /// The node of `children` (at most `WIDTH` boxes and child words, in slots `0..`),
+        /// with its per-octant child orders.
+        fn from_children(children: &[(Aabb, u32)]) -> Self;
 
         /// Tests the ray against every child's box and pushes the children it enters within
         /// `[tmin, tmax]` on `stack`, in the node's order for the ray's octant, nearest on top.
@@ -64,6 +63,9 @@ pub(crate) mod layout {
 
         /// The child word of slot `slot`.
         fn child(&self, slot: usize) -> u32;
+
+        /// The box the node's tests use for slot `slot` (it holds the child's box).
+        fn child_bounds(&self, slot: usize) -> Aabb;
 
         /// The number of slots in use (slots are filled from 0 up).
         fn used_slots(&self) -> usize;

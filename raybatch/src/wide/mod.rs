@@ -27,6 +27,7 @@ pub(crate) mod dispatch;
 pub(crate) mod interleaved;
 pub(crate) mod kind;
 pub mod node;
+pub mod node4q;
 pub mod node8;
 #[cfg(target_arch = "x86_64")]
 #[allow(unsafe_code)]
@@ -49,6 +50,7 @@ use crate::hit::Visitor;
 use crate::mesh::Mesh;
 pub use kind::NodeKind;
 use node::WideNode;
+use node4q::QuantizedWideNode;
 use node8::WideNode8;
 use stack::Stack;
 
@@ -67,6 +69,10 @@ pub struct WideBvh<N: NodeKind> {
 
 /// The 4-wide tree, the crate's default structure.
 pub type WideTree = WideBvh<WideNode>;
+
+/// The 4-wide tree with its child boxes quantized to 8 bits a plane on a per-node grid (rounded
+/// outwards): one 64-byte cache line per node instead of two, the same answers.
+pub type QuantizedWideTree = WideBvh<QuantizedWideNode>;
 
 /// The 8-wide tree: about a third fewer node visits than the 4-wide one per ray, for single
 /// rays; its batches use the same stream engine as the 4-wide tree's (nodes shared; side by side

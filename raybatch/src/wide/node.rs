@@ -255,16 +255,13 @@ impl Layout for WideNode {
     const NAME: &'static str = "bvh4";
     const FORMAT: &'static str = "4-wide nodes (128 B)";
 
-    fn empty() -> Self {
-        WideNode::empty()
-    }
-
-    fn set(&mut self, slot: usize, bounds: &Aabb, word: u32) {
-        WideNode::set(self, slot, bounds, word);
-    }
-
-    fn order_children(&mut self) {
-        WideNode::order_children(self);
+    fn from_children(children: &[(Aabb, u32)]) -> Self {
+        let mut node = WideNode::empty();
+        for (slot, (bounds, word)) in children.iter().enumerate() {
+            node.set(slot, bounds, *word);
+        }
+        node.order_children();
+        node
     }
 
     #[inline(always)]
@@ -301,6 +298,10 @@ impl Layout for WideNode {
     #[inline(always)]
     fn child(&self, slot: usize) -> u32 {
         self.child[slot]
+    }
+
+    fn child_bounds(&self, slot: usize) -> Aabb {
+        self.slot_bounds(slot)
     }
 
     #[inline(always)]

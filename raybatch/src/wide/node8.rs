@@ -49,6 +49,42 @@ const _: () =
     assert!(size_of::<WideNode8>() == 256 && std::mem::offset_of!(WideNode8, bounds) % 32 == 0);
 
 impl WideNode8 {
+    /// A node whose slots all hold empty boxes (which no ray enters).
+    pub(crate) fn empty() -> Self {
+        let (lo, hi) = ([f32::INFINITY; WIDTH], [f32::NEG_INFINITY; WIDTH]);
+        Self {
+            bounds: [lo, lo, lo, hi, hi, hi],
+            child: [0; WIDTH],
+            order: [0; 8],
+        }
+    }
+
+    /// Puts `bounds` and `word` in slot `slot` (slots are filled from 0 up).
+    pub(crate) fn set(&mut self, slot: usize, bounds: &Aabb, word: u32) {
+        for axis in 0..3 {
+            self.bounds[axis][slot] = bounds.min[axis];
+            self.bounds[3 + axis][slot] = bounds.max[axis];
+        }
+        self.child[slot] = word;
+    }
+
+    /// For each direction octant, the used slots sorted by the projection of their centres on
+    /// the octant's diagonal, then the unused ones.
+    pub(crate) fn order_children(&mut self) {
+        for octant in 0..8 {
+            let diagonal = octant_diagonal(octant);
+            let along = |slot: usize| self.slot_bounds(slot).center().dot(diagonal);
+            let (mut slots, unused): (Vec<usize>, Vec<usize>) =
+                (0..WIDTH).partition(|&slot| self.used(slot));
+            slots.sort_by(|&a, &b| along(a).total_cmp(&along(b)).then(a.cmp(&b)));
+            slots.extend(unused);
+            self.order[octant as usize] = slots
+                .iter()
+                .rev()
+                .fold(0, |word, &slot| (word << SLOT_BITS) | slot as u32);
+        }
+    }
+
     /// True if slot `slot` holds a box (an unused slot's is empty).
     fn used(&self, slot: usize) -> bool {
         self.bounds[0][slot] <= self.bounds[3][slot]
@@ -111,38 +147,13 @@ impl Layout for WideNode8 {
     const NAME: &'static str = "bvh8";
     const FORMAT: &'static str = "8-wide nodes (256 B)";
 
-    fn empty() -> Self {
-        let (lo, hi) = ([f32::INFINITY; WIDTH], [f32::NEG_INFINITY; WIDTH]);
-        Self {
-            bounds: [lo, lo, lo, hi, hi, hi],
-            child: [0; WIDTH],
-            order: [0; 8],
+    fn from_children(children: &[(Aabb, u32)]) -> Self {
+        let mut node = WideNode8::empty();
+        for (slot, (bounds, word)) in children.iter().enumerate() {
+            node.set(slot, bounds, *word);
         }
-    }
-
-    fn set(&mut self, slot: usize, bounds: &Aabb, word: u32) {
-        for axis in 0..3 {
-            self.bounds[axis][slot] = bounds.min[axis];
-            self.bounds[3 + axis][slot] = bounds.max[axis];
-        }
-        self.child[slot] = word;
-    }
-
-    /// For each direction octant, the used slots sorted by the projection of their centres on
-    /// the octant's diagonal, then the unused ones.
-    fn order_children(&mut self) {
-        for octant in 0..8 {
-            let diagonal = octant_diagonal(octant);
-            let along = |slot: usize| self.slot_bounds(slot).center().dot(diagonal);
-            let (mut slots, unused): (Vec<usize>, Vec<usize>) =
-                (0..WIDTH).partition(|&slot| self.used(slot));
-            slots.sort_by(|&a, &b| along(a).total_cmp(&along(b)).then(a.cmp(&b)));
-            slots.extend(unused);
-            self.order[octant as usize] = slots
-                .iter()
-                .rev()
-                .fold(0, |word, &slot| (word << SLOT_BITS) | slot as u32);
-        }
+        node.order_children();
+        node
     }
 
     #[inline(always)]
@@ -175,6 +186,10 @@ impl Layout for WideNode8 {
     #[inline(always)]
     fn child(&self, slot: usize) -> u32 {
         self.child[slot]
+    }
+
+    fn child_bounds(&self, slot: usize) -> Aabb {
+        self.slot_bounds(slot)
     }
 
     #[inline(always)]

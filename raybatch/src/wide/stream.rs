@@ -509,6 +509,7 @@ mod tests {
     use glam::Vec3;
 
     use super::super::node::WideNode;
+    use super::super::node4q::QuantizedWideNode;
     use super::super::node8::WideNode8;
     use super::super::simd::{self, Avx2};
     use super::*;
@@ -517,19 +518,18 @@ mod tests {
 
     /// A node of `used` random boxes (some flat), ordered.
     fn random_node<N: NodeKind>(rng: &mut TestRng, used: usize) -> (N, Vec<Aabb>) {
-        let mut node = N::empty();
-        let mut boxes = Vec::new();
-        for slot in 0..used {
-            let a = rng.vec3(2.0);
-            let mut b = a + rng.vec3(1.0).abs();
-            if slot == 1 {
-                b.z = a.z;
-            }
-            boxes.push(Aabb::new(a.min(b), a.max(b)));
-            node.set(slot, &boxes[slot], slot as u32);
-        }
-        node.order_children();
-        (node, boxes)
+        let boxes: Vec<Aabb> = (0..used)
+            .map(|slot| {
+                let a = rng.vec3(2.0);
+                let mut b = a + rng.vec3(1.0).abs();
+                if slot == 1 {
+                    b.z = a.z;
+                }
+                Aabb::new(a.min(b), a.max(b))
+            })
+            .collect();
+        let children: Vec<(Aabb, u32)> = boxes.iter().map(|&b| (b, 0)).collect();
+        (N::from_children(&children), boxes)
     }
 
     /// A ray of direction octant `octant`: some components zero (signed by the octant), some
@@ -581,6 +581,7 @@ mod tests {
         };
         eight_at_a_time_equals_one_at_a_time_for::<WideNode>(avx2);
         eight_at_a_time_equals_one_at_a_time_for::<WideNode8>(avx2);
+        eight_at_a_time_equals_one_at_a_time_for::<QuantizedWideNode>(avx2);
     }
 
     fn eight_at_a_time_equals_one_at_a_time_for<N: NodeKind>(avx2: Avx2) {
@@ -612,7 +613,8 @@ mod tests {
                 assert_eq!(from_bits, u64::from(mask), "ray {j}, round {round}");
                 let ray = &rays[ids[j] as usize];
                 let scalar = (0..boxes.len()).fold(0, |m, c| {
-                    m | u8::from(boxes[c].entry(ray, ray.tmax) < f32::INFINITY) << c
+                    let bounds = node.child_bounds(c);
+                    m | u8::from(bounds.entry(ray, ray.tmax) < f32::INFINITY) << c
                 });
                 assert_eq!(
                     mask, scalar,
