@@ -1,25 +1,27 @@
 //! What the wide walks need of a node, so that one tree type, one collapse, one one-ray loop,
 //! one stream engine and one side-by-side engine serve nodes of four children ([`WideNode`],
-//! the default tree) and of eight ([`WideNode8`], for single rays).
+//! the default tree), of eight ([`WideNode8`], for single rays) and of four in a quantized
+//! 64-byte node ([`QuantizedWideNode`]).
 //!
 //! Eight children take about a third fewer node visits per walk (12.8 -> 8.8 per incoherent
 //! fandisk ray; each a dependent load: the one-ray loop is bound by their latency, not by its
 //! instruction count), for a wider box test and push. Each layout implements the trait beside
-//! its node, in `node.rs` and `node8.rs`.
+//! its node, in `node.rs`, `node8.rs` and `node4q.rs`; all of them order their children per
+//! octant with [`octant_orders`].
 
 use std::fmt::Debug;
+
+use glam::Vec3;
 
 use super::node::{WideNode, WideRay};
 use super::node4q::QuantizedWideNode;
 use super::node8::WideNode8;
 use super::stack::Stack;
 use super::stream::StreamPlanes;
-use super::{WideBvh, WideScratch};
-use crate::accel::RayStream;
-use crate::geom::{Aabb, TriangleTest};
-use crate::hit::Visitor;
+use crate::bvh::ordering::octant_diagonal;
+use crate::geom::Aabb;
 
-/// A wide node layout: [`WideNode`] or [`WideNode8`] (sealed: what the walks need of a node
+/// A wide node layout: [`WideNode`], [`WideNode8`] or [`QuantizedWideNode`] (sealed: what the walks need of a node
 /// is the crate's own, in the private `layout::Layout`).
 pub trait NodeKind: layout::Layout + Clone + Copy + Debug + Send + Sync + 'static {}
 
@@ -70,18 +72,53 @@ pub(crate) mod layout {
         /// The number of slots in use (slots are filled from 0 up).
         fn used_slots(&self) -> usize;
 
+        /// The order word of direction octant `octant` (see [`octant_orders`]).
+        fn order_word(&self, octant: u32) -> u32;
+
         /// Every slot, nearest first for rays of octant mask `octant_mask` (`1 << octant`) or
         /// in slot order for mask 0 (mixed octants), `WIDTH.trailing_zeros()` bits each.
-        fn stream_order(&self, octant_mask: u8) -> u32;
-
-        /// Runs a batch's stream of rays through `tree` with the layout's own batched engine,
-        /// for the streams its tree does not walk side by side (`WideBvh::walks_side_by_side`).
-        fn trace_own_stream<K: TriangleTest, V: Visitor>(
-            tree: &WideBvh<Self>,
-            stream: &mut RayStream<'_>,
-            scratch: &mut WideScratch,
-            visitor: &mut V,
-        ) where
-            Self: NodeKind;
+        #[inline(always)]
+        fn stream_order(&self, octant_mask: u8) -> u32 {
+            match octant_mask {
+                0 => slot_order(Self::WIDTH),
+                mask => self.order_word(mask.trailing_zeros()),
+            }
+        }
     }
+}
+
+/// Bits of a slot number in an order word of a node of `width` slots.
+const fn slot_bits(width: usize) -> u32 {
+    width.trailing_zeros()
+}
+
+/// The order word listing a node's `width` slots in slot order.
+const fn slot_order(width: usize) -> u32 {
+    let mut word = 0;
+    let mut slot = 0;
+    while slot < width {
+        word |= (slot as u32) << (slot_bits(width) * slot as u32);
+        slot += 1;
+    }
+    word
+}
+
+/// Per direction octant, the order word of a node of `width` slots whose used slots
+/// `0..centres.len()` hold boxes centred at `centres`: the used slots sorted by the projection
+/// of their centres on the octant's diagonal (ties by slot), then the unused ones, position `k`
+/// in bits `k * b..(k + 1) * b` for `b = log2(width)`. A walk pushes the slots in this order
+/// (precomputed node sorting, seed 000), so every position names each slot once.
+pub(crate) fn octant_orders(centres: &[Vec3], width: usize) -> [u32; 8] {
+    debug_assert!(width.is_power_of_two() && centres.len() <= width);
+    std::array::from_fn(|octant| {
+        let diagonal = octant_diagonal(octant as u32);
+        let along = |slot: usize| centres[slot].dot(diagonal);
+        let mut slots: Vec<usize> = (0..centres.len()).collect();
+        slots.sort_by(|&a, &b| along(a).total_cmp(&along(b)).then(a.cmp(&b)));
+        slots.extend(centres.len()..width);
+        slots
+            .iter()
+            .rev()
+            .fold(0, |word, &slot| (word << slot_bits(width)) | slot as u32)
+    })
 }

@@ -183,9 +183,8 @@ impl<N: NodeKind> Accel for WideBvh<N> {
         dispatch::trace::<N, K, V>(true, self, ray, id, &mut scratch.stack, visitor)
     }
 
-    /// Rays side by side on large trees and short streams ([`Interleave::Auto`]), else the
-    /// layout's own engine (`Layout::trace_own_stream` in `kind.rs`): nodes shared by the rays
-    /// that reach them.
+    /// Rays side by side on large trees and short streams ([`Interleave::Auto`]), else nodes
+    /// shared by the rays that reach them (`stream`, for every layout).
     fn trace_stream<K: TriangleTest, V: Visitor>(
         &self,
         stream: &mut RayStream<'_>,
@@ -195,7 +194,7 @@ impl<N: NodeKind> Accel for WideBvh<N> {
         if self.walks_side_by_side(stream) {
             dispatch::trace_side_by_side::<N, K, V>(true, self, stream, scratch, visitor)
         } else {
-            N::trace_own_stream::<K, V>(self, stream, scratch, visitor)
+            dispatch::trace_shared::<N, K, V>(true, self, stream, scratch, visitor)
         }
     }
 }

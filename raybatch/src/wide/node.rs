@@ -26,14 +26,11 @@
 use glam::{Vec3, Vec4};
 
 use super::kind::layout::Layout;
+use super::kind::octant_orders;
 use super::stack::Stack;
 use super::stream::StreamPlanes;
-use super::{WideBvh, WideScratch, dispatch};
-use crate::accel::RayStream;
-use crate::bvh::ordering::octant_diagonal;
 use crate::geom::aabb::EXIT_SCALE;
-use crate::geom::{Aabb, PreparedRay, TriangleTest};
-use crate::hit::Visitor;
+use crate::geom::{Aabb, PreparedRay};
 use crate::prefetch::prefetch;
 
 /// Children per node.
@@ -85,18 +82,10 @@ impl WideNode {
     /// permutation of the four slots: the used ones nearest first, then the unused ones (whose
     /// empty boxes no ray enters), so a loop over all four positions meets every slot once.
     pub(crate) fn order_children(&mut self) {
-        for octant in 0..8 {
-            let diagonal = octant_diagonal(octant);
-            let mut slots: Vec<usize> = (0..self.used as usize).collect();
-            let along = |slot: usize| self.slot_bounds(slot).center().dot(diagonal);
-            slots.sort_by(|&a, &b| along(a).total_cmp(&along(b)).then(a.cmp(&b)));
-            slots.extend(self.used as usize..WIDTH);
-            let byte = slots
-                .iter()
-                .rev()
-                .fold(0u8, |byte, &slot| (byte << 2) | slot as u8);
-            self.order[octant as usize] = byte;
-        }
+        let centres: Vec<Vec3> = (0..self.used as usize)
+            .map(|slot| self.slot_bounds(slot).center())
+            .collect();
+        self.order = octant_orders(&centres, WIDTH).map(|word| word as u8);
     }
 
     /// The order byte of direction octant `octant` (see [`WideNode::order_children`]).
@@ -278,16 +267,7 @@ impl Layout for WideNode {
     }
 
     fn stream_planes(&self, octant: u32) -> StreamPlanes {
-        let planes = self.planes(octant);
-        let lanes = |row: Vec4| {
-            let mut lanes = [0.0; 8];
-            lanes[..WIDTH].copy_from_slice(&row.to_array());
-            lanes
-        };
-        StreamPlanes {
-            near: planes.near.map(lanes),
-            far: planes.far.map(lanes),
-        }
+        StreamPlanes::from_four(&self.planes(octant))
     }
 
     #[inline(always)]
@@ -310,21 +290,8 @@ impl Layout for WideNode {
     }
 
     #[inline(always)]
-    fn stream_order(&self, octant_mask: u8) -> u32 {
-        match octant_mask {
-            0 => 0b11_10_01_00,
-            mask => u32::from(self.order(mask.trailing_zeros())),
-        }
-    }
-
-    /// Nodes shared by the rays that reach them.
-    fn trace_own_stream<K: TriangleTest, V: Visitor>(
-        tree: &WideBvh<Self>,
-        stream: &mut RayStream<'_>,
-        scratch: &mut WideScratch,
-        visitor: &mut V,
-    ) {
-        dispatch::trace_shared::<Self, K, V>(true, tree, stream, scratch, visitor)
+    fn order_word(&self, octant: u32) -> u32 {
+        u32::from(self.order(octant))
     }
 }
 

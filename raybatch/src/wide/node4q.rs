@@ -27,14 +27,11 @@
 use glam::{Vec3, Vec4};
 
 use super::kind::layout::Layout;
+use super::kind::octant_orders;
 use super::node::{Planes, WideRay};
 use super::stack::Stack;
 use super::stream::StreamPlanes;
-use super::{WideBvh, WideScratch, dispatch};
-use crate::accel::RayStream;
-use crate::bvh::ordering::octant_diagonal;
-use crate::geom::{Aabb, TriangleTest};
-use crate::hit::Visitor;
+use crate::geom::Aabb;
 use crate::prefetch::prefetch;
 
 /// Children per node.
@@ -104,15 +101,15 @@ fn steps_above(origin: f32, step: f32, value: f32) -> u8 {
 }
 
 impl QuantizedWideNode {
-    /// The step of each axis.
+    /// The grid step of each axis.
     #[inline(always)]
-    fn steps(&self) -> [f32; 3] {
+    fn step_sizes(&self) -> [f32; 3] {
         self.exponent.map(step)
     }
 
     /// The decoded box of slot `slot` (it holds the child's exact box).
     pub(crate) fn slot_bounds(&self, slot: usize) -> Aabb {
-        let steps = self.steps();
+        let steps = self.step_sizes();
         let corner = |rows: &[[u8; WIDTH]; 3]| {
             Vec3::from_array(std::array::from_fn(|a| {
                 plane(self.origin[a], rows[a][slot], steps[a])
@@ -124,7 +121,7 @@ impl QuantizedWideNode {
     /// The six decoded planes of all four slots: minima then maxima, per axis.
     #[inline(always)]
     fn decoded(&self) -> [Vec4; 6] {
-        let steps = self.steps();
+        let steps = self.step_sizes();
         let row = |rows: &[[u8; WIDTH]; 3], a: usize| {
             let steps_of = Vec4::from_array(rows[a].map(f32::from));
             Vec4::splat(self.origin[a]) + steps_of * Vec4::splat(steps[a])
@@ -200,17 +197,8 @@ impl Layout for QuantizedWideNode {
         for (slot, (_, word)) in children.iter().enumerate() {
             node.child[slot] = *word;
         }
-        for octant in 0..8 {
-            let diagonal = octant_diagonal(octant);
-            let along = |slot: usize| children[slot].0.center().dot(diagonal);
-            let mut slots: Vec<usize> = (0..children.len()).collect();
-            slots.sort_by(|&a, &b| along(a).total_cmp(&along(b)).then(a.cmp(&b)));
-            slots.extend(children.len()..WIDTH);
-            node.order[octant as usize] = slots
-                .iter()
-                .rev()
-                .fold(0u8, |byte, &slot| (byte << 2) | slot as u8);
-        }
+        let centres: Vec<Vec3> = children.iter().map(|(b, _)| b.center()).collect();
+        node.order = octant_orders(&centres, WIDTH).map(|word| word as u8);
         node
     }
 
@@ -227,16 +215,7 @@ impl Layout for QuantizedWideNode {
     }
 
     fn stream_planes(&self, octant: u32) -> StreamPlanes {
-        let planes = self.planes(octant);
-        let lanes = |row: Vec4| {
-            let mut lanes = [0.0; 8];
-            lanes[..WIDTH].copy_from_slice(&row.to_array());
-            lanes
-        };
-        StreamPlanes {
-            near: planes.near.map(lanes),
-            far: planes.far.map(lanes),
-        }
+        StreamPlanes::from_four(&self.planes(octant))
     }
 
     #[inline(always)]
@@ -259,21 +238,8 @@ impl Layout for QuantizedWideNode {
     }
 
     #[inline(always)]
-    fn stream_order(&self, octant_mask: u8) -> u32 {
-        match octant_mask {
-            0 => 0b11_10_01_00,
-            mask => u32::from(self.order(mask.trailing_zeros())),
-        }
-    }
-
-    /// Nodes shared by the rays that reach them, as the 4-wide tree's streams.
-    fn trace_own_stream<K: TriangleTest, V: Visitor>(
-        tree: &WideBvh<Self>,
-        stream: &mut RayStream<'_>,
-        scratch: &mut WideScratch,
-        visitor: &mut V,
-    ) {
-        dispatch::trace_shared::<Self, K, V>(true, tree, stream, scratch, visitor)
+    fn order_word(&self, octant: u32) -> u32 {
+        u32::from(self.order(octant))
     }
 }
 
@@ -304,7 +270,7 @@ mod tests {
                 })
                 .collect();
             let node = QuantizedWideNode::from_children(&children);
-            let steps = node.steps();
+            let steps = node.step_sizes();
             for (slot, (exact, word)) in children.iter().enumerate() {
                 let decoded = node.slot_bounds(slot);
                 assert_eq!(node.child[slot], *word);

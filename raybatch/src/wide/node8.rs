@@ -15,22 +15,15 @@
 use glam::{Vec3, Vec4};
 
 use super::kind::layout::Layout;
+use super::kind::octant_orders;
 use super::node::{Planes, WideRay};
 use super::stack::Stack;
 use super::stream::StreamPlanes;
-use super::{WideBvh, WideScratch, dispatch};
-use crate::accel::RayStream;
-use crate::bvh::ordering::octant_diagonal;
 use crate::geom::Aabb;
-use crate::geom::TriangleTest;
-use crate::hit::Visitor;
 use crate::prefetch::prefetch;
 
 /// Children per node.
 pub const WIDTH: usize = 8;
-
-/// Bits of a slot number in an order word.
-const SLOT_BITS: u32 = 3;
 
 /// One 8-wide node (see the module docs).
 #[derive(Clone, Copy, Debug)]
@@ -40,7 +33,7 @@ pub struct WideNode8 {
     pub(crate) bounds: [[f32; WIDTH]; 6],
     /// Child words.
     pub(crate) child: [u32; WIDTH],
-    /// Per octant, every slot, the used ones nearest first ([`SLOT_BITS`] bits each).
+    /// Per octant, every slot, the used ones nearest first (3 bits each, see `kind::octant_orders`).
     order: [u32; 8],
 }
 
@@ -69,20 +62,18 @@ impl WideNode8 {
     }
 
     /// For each direction octant, the used slots sorted by the projection of their centres on
-    /// the octant's diagonal, then the unused ones.
+    /// the octant's diagonal, then the unused ones ([`octant_orders`]).
     pub(crate) fn order_children(&mut self) {
-        for octant in 0..8 {
-            let diagonal = octant_diagonal(octant);
-            let along = |slot: usize| self.slot_bounds(slot).center().dot(diagonal);
-            let (mut slots, unused): (Vec<usize>, Vec<usize>) =
-                (0..WIDTH).partition(|&slot| self.used(slot));
-            slots.sort_by(|&a, &b| along(a).total_cmp(&along(b)).then(a.cmp(&b)));
-            slots.extend(unused);
-            self.order[octant as usize] = slots
-                .iter()
-                .rev()
-                .fold(0, |word, &slot| (word << SLOT_BITS) | slot as u32);
-        }
+        let centres: Vec<Vec3> = (0..self.used_slots())
+            .map(|slot| self.slot_bounds(slot).center())
+            .collect();
+        self.order = octant_orders(&centres, WIDTH);
+    }
+
+    /// The number of slots in use (slots are filled from 0 up; an unused slot's box is empty).
+    #[inline(always)]
+    fn used_slots(&self) -> usize {
+        (0..WIDTH).take_while(|&slot| self.used(slot)).count()
     }
 
     /// True if slot `slot` holds a box (an unused slot's is empty).
@@ -194,25 +185,12 @@ impl Layout for WideNode8 {
 
     #[inline(always)]
     fn used_slots(&self) -> usize {
-        (0..WIDTH).take_while(|&slot| self.used(slot)).count()
+        WideNode8::used_slots(self)
     }
 
     #[inline(always)]
-    fn stream_order(&self, octant_mask: u8) -> u32 {
-        match octant_mask {
-            0 => 0o76543210,
-            mask => self.order(mask.trailing_zeros()),
-        }
-    }
-
-    /// Nodes shared by the rays that reach them, as the 4-wide tree's streams.
-    fn trace_own_stream<K: TriangleTest, V: Visitor>(
-        tree: &WideBvh<Self>,
-        stream: &mut RayStream<'_>,
-        scratch: &mut WideScratch,
-        visitor: &mut V,
-    ) {
-        dispatch::trace_shared::<Self, K, V>(true, tree, stream, scratch, visitor)
+    fn order_word(&self, octant: u32) -> u32 {
+        self.order(octant)
     }
 }
 
@@ -236,7 +214,7 @@ mod tests {
         node.order_children();
         let order = |octant: u32| -> Vec<u32> {
             (0..WIDTH as u32)
-                .map(|k| (node.order(octant) >> (SLOT_BITS * k)) & 7)
+                .map(|k| (node.order(octant) >> (3 * k)) & 7)
                 .collect()
         };
         assert_eq!(order(0), [1, 3, 4, 2, 0, 5, 6, 7]);

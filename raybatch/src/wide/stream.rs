@@ -62,6 +62,21 @@ pub(crate) struct StreamPlanes {
     pub(crate) far: [[f32; MAX_WIDTH]; 3],
 }
 
+impl StreamPlanes {
+    /// The planes of a 4-wide node ([`super::node::Planes`]), in lanes 0 to 3.
+    pub(crate) fn from_four(planes: &super::node::Planes) -> Self {
+        let lanes = |row: glam::Vec4| {
+            let mut lanes = [0.0; MAX_WIDTH];
+            lanes[..4].copy_from_slice(&row.to_array());
+            lanes
+        };
+        StreamPlanes {
+            near: planes.near.map(lanes),
+            far: planes.far.map(lanes),
+        }
+    }
+}
+
 /// Runs every ray of `stream` through the tree.
 #[inline(always)]
 pub(crate) fn trace_stream<N: NodeKind, K: TriangleTest, V: Visitor>(
