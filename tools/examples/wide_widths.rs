@@ -86,24 +86,15 @@ fn main() {
             let per_triangle = tree.bytes() as f64 / mesh.triangle_count() as f64;
             println!("{}: {per_triangle:.1} bytes per triangle", tree.label());
         }
-        let closest = scenes::generate(RaySet::Incoherent, mesh, scene.kind, count, 7);
+        let rays = |set| scenes::generate(set, mesh, scene.kind, count, 7);
+        let closest = rays(RaySet::Incoherent);
         let times = race(rounds, |v| trees[v / 2].closest_hits(v % 2 == 1, &closest));
-        report(
-            &trees,
-            scene.name,
-            "closest hit, incoherent",
-            (count, rounds),
-            &times,
-        );
-        let segments = scenes::generate(RaySet::LineOfSight, mesh, scene.kind, count, 7);
+        let query = (scene.name, "closest hit, incoherent");
+        report(&trees, query, (count, rounds), &times);
+        let segments = rays(RaySet::LineOfSight);
         let times = race(rounds, |v| trees[v / 2].occlusion(v % 2 == 1, &segments));
-        report(
-            &trees,
-            scene.name,
-            "any hit, line of sight",
-            (count, rounds),
-            &times,
-        );
+        let query = (scene.name, "any hit, line of sight");
+        report(&trees, query, (count, rounds), &times);
     });
 }
 
@@ -130,8 +121,7 @@ fn race<T: PartialEq>(rounds: usize, mut run: impl FnMut(usize) -> T) -> [f64; 6
 /// batched times.
 fn report(
     trees: &[Box<dyn Answers>; 3],
-    scene: &str,
-    query: &str,
+    (scene, query): (&str, &str),
     (count, rounds): (usize, usize),
     times: &[f64; 6],
 ) {

@@ -87,6 +87,14 @@ pub(crate) mod layout {
     }
 }
 
+/// The slots of order word `order` of a node of `width` slots, nearest first (see
+/// [`octant_orders`]); every slot once.
+#[inline(always)]
+pub(crate) fn order_slots(order: u32, width: usize) -> impl DoubleEndedIterator<Item = usize> {
+    let bits = slot_bits(width);
+    (0..width as u32).map(move |k| (order >> (bits * k)) as usize & (width - 1))
+}
+
 /// Bits of a slot number in an order word of a node of `width` slots.
 const fn slot_bits(width: usize) -> u32 {
     width.trailing_zeros()
@@ -104,12 +112,14 @@ const fn slot_order(width: usize) -> u32 {
 }
 
 /// Per direction octant, the order word of a node of `width` slots whose used slots
-/// `0..centres.len()` hold boxes centred at `centres`: the used slots sorted by the projection
-/// of their centres on the octant's diagonal (ties by slot), then the unused ones, position `k`
-/// in bits `k * b..(k + 1) * b` for `b = log2(width)`. A walk pushes the slots in this order
-/// (precomputed node sorting, seed 000), so every position names each slot once.
-pub(crate) fn octant_orders(centres: &[Vec3], width: usize) -> [u32; 8] {
-    debug_assert!(width.is_power_of_two() && centres.len() <= width);
+/// `0..children.len()` hold `children`: the used slots sorted by the projection of their boxes'
+/// centres on the octant's diagonal (ties by slot), then the unused ones, position `k` in bits
+/// `k * b..(k + 1) * b` for `b = log2(width)` (read back by [`order_slots`]). A walk pushes the
+/// slots in this order (precomputed node sorting, seed 000), so every position names each slot
+/// once.
+pub(crate) fn octant_orders(children: &[(Aabb, u32)], width: usize) -> [u32; 8] {
+    debug_assert!(width.is_power_of_two() && children.len() <= width);
+    let centres: Vec<Vec3> = children.iter().map(|(bounds, _)| bounds.center()).collect();
     std::array::from_fn(|octant| {
         let diagonal = octant_diagonal(octant as u32);
         let along = |slot: usize| centres[slot].dot(diagonal);

@@ -78,17 +78,9 @@ impl WideNode {
         self.used = self.used.max(slot as u8 + 1);
     }
 
-    /// Computes the per-octant order bytes from the slots set so far. Each byte is a
-    /// permutation of the four slots: the used ones nearest first, then the unused ones (whose
-    /// empty boxes no ray enters), so a loop over all four positions meets every slot once.
-    pub(crate) fn order_children(&mut self) {
-        let centres: Vec<Vec3> = (0..self.used as usize)
-            .map(|slot| self.slot_bounds(slot).center())
-            .collect();
-        self.order = octant_orders(&centres, WIDTH).map(|word| word as u8);
-    }
-
-    /// The order byte of direction octant `octant` (see [`WideNode::order_children`]).
+    /// The order byte of direction octant `octant`: a permutation of the four slots, the used
+    /// ones nearest first, then the unused ones, whose empty boxes no ray enters
+    /// ([`octant_orders`]).
     #[inline(always)]
     pub(crate) fn order(&self, octant: u32) -> u8 {
         self.order[octant as usize & 7]
@@ -249,7 +241,7 @@ impl Layout for WideNode {
         for (slot, (bounds, word)) in children.iter().enumerate() {
             node.set(slot, bounds, *word);
         }
-        node.order_children();
+        node.order = octant_orders(children, WIDTH).map(|word| word as u8);
         node
     }
 
@@ -305,13 +297,16 @@ pub(crate) mod tests {
     /// slot order for mixed octants.
     #[test]
     fn children_are_ordered_per_octant() {
-        let mut node = WideNode::empty();
         // Three children along x at x = 2, 0, 1 (slots 0, 1, 2); slot 3 unused.
-        for (slot, x) in [2.0f32, 0.0, 1.0].into_iter().enumerate() {
-            let min = glam::Vec3::new(x, 0.0, 0.0);
-            node.set(slot, &Aabb::new(min, min + 0.5), slot as u32 + 10);
-        }
-        node.order_children();
+        let children: Vec<(Aabb, u32)> = [2.0f32, 0.0, 1.0]
+            .into_iter()
+            .enumerate()
+            .map(|(slot, x)| {
+                let min = glam::Vec3::new(x, 0.0, 0.0);
+                (Aabb::new(min, min + 0.5), slot as u32 + 10)
+            })
+            .collect();
+        let node = WideNode::from_children(&children);
         let order = |mask: u8| -> Vec<u32> {
             let word = node.stream_order(mask);
             (0..WIDTH as u32).map(|k| (word >> (2 * k)) & 3).collect()

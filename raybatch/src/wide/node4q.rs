@@ -197,8 +197,7 @@ impl Layout for QuantizedWideNode {
         for (slot, (_, word)) in children.iter().enumerate() {
             node.child[slot] = *word;
         }
-        let centres: Vec<Vec3> = children.iter().map(|(b, _)| b.center()).collect();
-        node.order = octant_orders(&centres, WIDTH).map(|word| word as u8);
+        node.order = octant_orders(children, WIDTH).map(|word| word as u8);
         node
     }
 

@@ -61,15 +61,6 @@ impl WideNode8 {
         self.child[slot] = word;
     }
 
-    /// For each direction octant, the used slots sorted by the projection of their centres on
-    /// the octant's diagonal, then the unused ones ([`octant_orders`]).
-    pub(crate) fn order_children(&mut self) {
-        let centres: Vec<Vec3> = (0..self.used_slots())
-            .map(|slot| self.slot_bounds(slot).center())
-            .collect();
-        self.order = octant_orders(&centres, WIDTH);
-    }
-
     /// The number of slots in use (slots are filled from 0 up; an unused slot's box is empty).
     #[inline(always)]
     fn used_slots(&self) -> usize {
@@ -143,7 +134,7 @@ impl Layout for WideNode8 {
         for (slot, (bounds, word)) in children.iter().enumerate() {
             node.set(slot, bounds, *word);
         }
-        node.order_children();
+        node.order = octant_orders(children, WIDTH);
         node
     }
 
@@ -205,13 +196,16 @@ mod tests {
     /// the unused ones, each slot once.
     #[test]
     fn children_are_ordered_per_octant() {
-        let mut node = WideNode8::empty();
         // Five children along x at x = 4, 0, 3, 1, 2 (slots 0-4); slots 5-7 unused.
-        for (slot, x) in [4.0f32, 0.0, 3.0, 1.0, 2.0].into_iter().enumerate() {
-            let min = Vec3::new(x, 0.0, 0.0);
-            node.set(slot, &Aabb::new(min, min + 0.5), slot as u32);
-        }
-        node.order_children();
+        let children: Vec<(Aabb, u32)> = [4.0f32, 0.0, 3.0, 1.0, 2.0]
+            .into_iter()
+            .enumerate()
+            .map(|(slot, x)| {
+                let min = Vec3::new(x, 0.0, 0.0);
+                (Aabb::new(min, min + 0.5), slot as u32)
+            })
+            .collect();
+        let node = WideNode8::from_children(&children);
         let order = |octant: u32| -> Vec<u32> {
             (0..WIDTH as u32)
                 .map(|k| (node.order(octant) >> (3 * k)) & 7)

@@ -25,6 +25,7 @@
 //! 370 -> 473; 11% more instructions): the order then waits for the box test, and so does
 //! every push that depended only on the stored order before.
 
+use super::kind::order_slots;
 use crate::bvh::build::MAX_DEPTH;
 
 /// A pending child: its word and the distance at which the ray enters its box.
@@ -70,8 +71,7 @@ impl Stack {
 
     /// Pushes the children hit (bit `k` of `mask` for slot `k`, entering at `entries[k]`) in
     /// the node's order for the ray's octant (`order`: the slots nearest first, `log2(W)` bits
-    /// each, see [`super::node::WideNode::order_children`] and the order words of
-    /// [`super::node8`]), farthest first, so the nearest is on top.
+    /// each, see [`super::kind::octant_orders`]), farthest first, so the nearest is on top.
     #[inline(always)]
     pub(crate) fn push_hits<const W: usize>(
         &mut self,
@@ -107,10 +107,8 @@ fn push<const W: usize>(
     order: u32,
 ) -> usize {
     const { assert!(W.is_power_of_two() && W <= MAX_WIDTH) };
-    let bits = W.trailing_zeros();
     let mut pushed = 0;
-    for k in (0..W as u32).rev() {
-        let slot = ((order >> (bits * k)) as usize) & (W - 1);
+    for slot in order_slots(order, W).rev() {
         top[pushed] = Pending {
             word: children[slot],
             entry: entries[slot],

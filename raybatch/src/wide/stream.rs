@@ -27,6 +27,7 @@
 //!
 //! [`BatchOptions::single_ray_below`]: crate::batch::BatchOptions::single_ray_below
 
+use super::kind::order_slots;
 use super::node::{BoxSimd, WideRay};
 use super::stack::Stack;
 use super::{NodeKind, WideBvh, WideScratch};
@@ -360,9 +361,7 @@ impl<N: NodeKind> Walk<'_, N> {
             }
         }
         let order = node.stream_order(self.octant_mask);
-        let bits = N::WIDTH.trailing_zeros();
-        for k in (0..N::WIDTH as u32).rev() {
-            let slot = (order >> (bits * k)) as usize & (N::WIDTH - 1);
+        for slot in order_slots(order, N::WIDTH).rev() {
             let (list_end, count) = ((cursor[slot] + top) as u32, counts[slot]);
             if count > 0 {
                 self.pending.push(Pending {
