@@ -69,7 +69,9 @@ pub(crate) fn prepare(
     }
 }
 
-/// [`prepare`] into prepared-ray records instead of lanes.
+/// [`prepare`] into prepared-ray records instead of lanes. With AVX2 the eight records of a
+/// step go from registers straight to their slots (`prepare_avx2::scatter_records`), where a
+/// copy through a staging array took a quarter of a line-of-sight batch's preparation.
 pub(crate) fn prepare_records(
     rays: &[Ray],
     (ordering, cull): (BatchOrdering, Option<Aabb>),
@@ -78,12 +80,19 @@ pub(crate) fn prepare_records(
 ) -> Groups {
     let starts = group_starts(rays, ordering, keys);
     out.reserve_slots(starts[GROUPS]);
-    let ends = scatter(rays, (keys, slots), (starts, cull), |slot, ray| {
+    let mut placer = Placer::new(slots, starts, rays.len());
+    #[cfg_attr(not(target_arch = "x86_64"), allow(unused_mut))]
+    let mut done = 0;
+    #[cfg(target_arch = "x86_64")]
+    if let Some(avx2) = Avx2::detect() {
+        done = prepare_avx2::scatter_records(avx2, (rays, keys), cull.as_ref(), &mut placer, out);
+    }
+    scatter_rest(rays, keys, done, cull, &mut placer, |slot, ray| {
         out.set(slot, ray, slot as u32)
     });
     Groups {
         starts,
-        ends,
+        ends: placer.next,
         ordering,
     }
 }
@@ -111,11 +120,55 @@ impl Slots {
     }
 }
 
-/// Pass 2 of the counting sort, for either layout: `put(slot, ray)` for each valid ray,
-/// prepared, at its place in its group, and both ways between slots and positions in `slots`.
-/// A ray that misses `cull` is written too, but the group's cursor stays where it was (the next
-/// ray takes its place) and its position maps to [`Slots::dead`]. Returns where each group's
-/// kept rays end. Eight rays at a time with AVX2 (the same records, the same box test).
+/// Pass 2 of the counting sort's bookkeeping, for either layout: gives each valid ray its
+/// slot in its group and records both ways between slots and positions. A ray that misses the
+/// cull box gets a slot too (its record is written), but the group's cursor stays where it
+/// was (the next ray takes its place) and its position maps to [`Slots::dead`].
+pub(crate) struct Placer<'s> {
+    /// Where each group's next ray goes; at the end, where each group's kept rays end.
+    next: [usize; GROUPS],
+    positions: &'s mut [u32],
+    of_position: &'s mut [u32],
+    dead: u32,
+}
+
+impl<'s> Placer<'s> {
+    /// Sizes `slots` for a chunk of `rays` rays whose groups start at `starts`. Every entry is
+    /// written by [`Placer::place`] (every slot by the ray that ends there, every position by
+    /// its ray), so the arrays are not cleared first.
+    fn new(slots: &'s mut Slots, starts: [usize; GROUPS + 1], rays: usize) -> Self {
+        let Slots {
+            positions,
+            of_position,
+        } = slots;
+        positions.resize(starts[GROUPS], 0);
+        of_position.resize(rays, Slots::NONE);
+        Self {
+            next: std::array::from_fn(|g| starts[g]),
+            positions,
+            of_position,
+            dead: starts[GROUPS] as u32,
+        }
+    }
+
+    /// The slot ray `id` (group key `key`, touching the cull box if `kept`) is written to;
+    /// `None` for an invalid ray.
+    #[inline(always)]
+    pub(crate) fn place(&mut self, id: usize, key: u8, kept: bool) -> Option<usize> {
+        let Some(&slot) = self.next.get(key as usize) else {
+            self.of_position[id] = Slots::NONE;
+            return None;
+        };
+        self.positions[slot] = id as u32;
+        self.of_position[id] = if kept { slot as u32 } else { self.dead };
+        self.next[key as usize] += kept as usize;
+        Some(slot)
+    }
+}
+
+/// Pass 2 of the counting sort for [`prepare`]'s lanes: `put(slot, ray)` for each valid ray,
+/// prepared, at the slot [`Placer`] gives it. Returns where each group's kept rays end. Eight
+/// rays at a time with AVX2 (the same records, the same box test).
 #[inline(always)]
 fn scatter(
     rays: &[Ray],
@@ -123,26 +176,7 @@ fn scatter(
     (starts, cull): ([usize; GROUPS + 1], Option<Aabb>),
     mut put: impl FnMut(usize, PreparedRay),
 ) -> [usize; GROUPS] {
-    let Slots {
-        positions,
-        of_position,
-    } = slots;
-    positions.clear();
-    positions.resize(starts[GROUPS], 0);
-    of_position.clear();
-    of_position.resize(rays.len(), Slots::NONE);
-    let dead = starts[GROUPS] as u32;
-    let mut next: [usize; GROUPS] = std::array::from_fn(|g| starts[g]);
-    let mut place = |id: usize, key: u8, ray: PreparedRay, kept: bool| {
-        let key = key as usize;
-        if key < GROUPS {
-            let slot = next[key];
-            put(slot, ray);
-            positions[slot] = id as u32;
-            of_position[id] = if kept { slot as u32 } else { dead };
-            next[key] += kept as usize;
-        }
-    };
+    let mut placer = Placer::new(slots, starts, rays.len());
     // Rays done eight at a time (none without AVX2).
     #[cfg_attr(not(target_arch = "x86_64"), allow(unused_mut))]
     let mut done = 0;
@@ -153,19 +187,38 @@ fn scatter(
             let touching =
                 prepare_avx2::prepare(avx2, eight.try_into().unwrap(), cull.as_ref(), &mut records);
             for (j, (&key, record)) in keys.iter().zip(&records).enumerate() {
-                place(8 * k + j, key, *record, touching >> j & 1 == 1);
+                if let Some(slot) = placer.place(8 * k + j, key, touching >> j & 1 == 1) {
+                    put(slot, *record);
+                }
             }
         }
         done = rays.len() / 8 * 8;
     }
+    scatter_rest(rays, keys, done, cull, &mut placer, put);
+    placer.next
+}
+
+/// The rays from `done` on, one at a time: prepared and `put` at the slot `placer` gives them.
+#[inline(always)]
+fn scatter_rest(
+    rays: &[Ray],
+    keys: &[u8],
+    done: usize,
+    cull: Option<Aabb>,
+    placer: &mut Placer,
+    mut put: impl FnMut(usize, PreparedRay),
+) {
     for (id, (ray, &key)) in rays.iter().zip(keys).enumerate().skip(done) {
         if (key as usize) < GROUPS {
             let ray = PreparedRay::from_valid(ray);
             let kept = cull.is_none_or(|bounds| bounds.hit_by(&ray, ray.tmax));
-            place(id, key, ray, kept);
+            if let Some(slot) = placer.place(id, key, kept) {
+                put(slot, ray);
+            }
+        } else {
+            placer.place(id, key, false);
         }
     }
-    next
 }
 
 /// Pass 1 of the counting sort: each ray's group into `keys` (`GROUPS` for an invalid ray)

@@ -17,6 +17,8 @@ use std::arch::x86_64::{
     _mm256_store_ps, _mm256_storeu_si256,
 };
 
+use super::group::Placer;
+use super::rays::PreparedRays;
 use crate::geom::box_octet::slab_range;
 use crate::geom::{Aabb, PreparedRay, Ray};
 use crate::x86::Avx2;
@@ -81,14 +83,89 @@ pub(crate) fn prepare(
     unsafe { prepare_avx2(rays, cull, out) }
 }
 
-/// See [`prepare`]. Lane by lane the arithmetic of `PreparedRay::from_flushed` and of
-/// `geom::aabb::box_entry`.
+/// See [`prepare`].
 ///
 /// # Safety
 /// The CPU must support AVX2.
 #[inline]
 #[target_feature(enable = "avx2")]
 unsafe fn prepare_avx2(rays: &[Ray; 8], cull: Option<&Aabb>, out: &mut [PreparedRay; 8]) -> u32 {
+    let rows = rows(rays, cull);
+    for (j, record) in out.iter_mut().enumerate() {
+        rows.store(j, record);
+    }
+    rows.touching
+}
+
+/// Prepares `rays` into `out`'s records at the slots `placer` gives them (group keys `keys`,
+/// the cull box `cull`), eight at a time, each record stored from registers into its slot;
+/// returns how many rays that was (a multiple of eight: the caller does the rest).
+#[inline(always)]
+pub(crate) fn scatter_records(
+    _: Avx2,
+    (rays, keys): (&[Ray], &[u8]),
+    cull: Option<&Aabb>,
+    placer: &mut Placer,
+    out: &mut PreparedRays,
+) -> usize {
+    // SAFETY: an `Avx2` exists only if the CPU has AVX2.
+    unsafe { scatter_records_avx2((rays, keys), cull, placer, out) }
+}
+
+/// See [`scatter_records`].
+///
+/// # Safety
+/// The CPU must support AVX2.
+#[inline]
+#[target_feature(enable = "avx2")]
+unsafe fn scatter_records_avx2(
+    (rays, keys): (&[Ray], &[u8]),
+    cull: Option<&Aabb>,
+    placer: &mut Placer,
+    out: &mut PreparedRays,
+) -> usize {
+    for (k, (eight, keys)) in rays.chunks_exact(8).zip(keys.chunks_exact(8)).enumerate() {
+        let rows = rows(eight.try_into().unwrap(), cull);
+        for (j, &key) in keys.iter().enumerate() {
+            if let Some(slot) = placer.place(8 * k + j, key, rows.touching >> j & 1 == 1) {
+                rows.store(j, &mut out.rays[slot]);
+                out.ids[slot] = slot as u32;
+            }
+        }
+    }
+    rays.len() / 8 * 8
+}
+
+/// Eight prepared records as rows (ray `j`'s first and second 32 bytes), and which of the rays
+/// touch the cull box.
+struct Rows {
+    first: [__m256; 8],
+    second: [__m256; 8],
+    touching: u32,
+}
+
+impl Rows {
+    /// Writes ray `j`'s record to `record`.
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    fn store(&self, j: usize, record: &mut PreparedRay) {
+        let record: *mut PreparedRay = record;
+        // SAFETY: a `PreparedRay` is 64 bytes aligned to 64 of plain `f32`s and bytes (its
+        // layout is asserted next to it), so both halves are aligned, writable, and any bits
+        // are a valid value; the second half's last lane is the `pad` field, written zero.
+        unsafe {
+            _mm256_store_ps(record.cast::<f32>(), self.first[j]);
+            _mm256_store_ps(record.cast::<f32>().add(8), self.second[j]);
+        }
+    }
+}
+
+/// The records of the eight rays as rows, those of invalid rays meaningless, and which of
+/// them touch `cull`. Lane by lane the arithmetic of `PreparedRay::from_flushed` and of
+/// `geom::aabb::box_entry`.
+#[inline]
+#[target_feature(enable = "avx2")]
+fn rows(rays: &[Ray; 8], cull: Option<&Aabb>) -> Rows {
     let Columns {
         origin,
         dir: d,
@@ -139,17 +216,11 @@ unsafe fn prepare_avx2(rays: &[Ray; 8], cull: Option<&Aabb>, out: &mut [Prepared
         _mm256_castsi256_ps(bytes),
         _mm256_setzero_ps(),
     ]);
-    for (j, record) in out.iter_mut().enumerate() {
-        let record: *mut PreparedRay = record;
-        // SAFETY: a `PreparedRay` is 64 bytes aligned to 64 of plain `f32`s and bytes (its
-        // layout is asserted next to it), so both halves are aligned, writable, and any bits
-        // are a valid value; the second half's last lane is the `pad` field, written zero.
-        unsafe {
-            _mm256_store_ps(record.cast::<f32>(), first[j]);
-            _mm256_store_ps(record.cast::<f32>().add(8), second[j]);
-        }
+    Rows {
+        first,
+        second,
+        touching,
     }
-    touching
 }
 
 /// Which of eight rays (columns: origins, inverse directions, ranges) touch `bounds`: lane by
