@@ -2,22 +2,42 @@
 //!
 //! A chunk is traversed as one batch: bigger chunks share each node fetch among more rays,
 //! smaller ones keep the working set in cache and give every thread work.
+//!
+//! On one thread the batch is cut into chunks of [`BatchOptions::max_chunk`] rays. On several,
+//! chunks shrink as the batch runs out (guided scheduling): each is a share of the rays still
+//! waiting, so the threads start on large chunks and finish on small ones, and none sits idle
+//! while another works through a large last chunk. Threads take the chunks in order from one
+//! queue. Uniform chunks (about four per thread, as before) finished unevenly on camera rays,
+//! whose chunks cost more where the image shows the mesh: 1M camera rays, 2 threads against 1,
+//! best of 7, uniform and guided alternated in one process: fandisk 1.68x -> 1.87x (1.89x ->
+//! 2.04x in a second run), teapot 1.76x -> 1.78x, bunny 1.89x -> 2.05x; incoherent rays
+//! 1.79x -> 1.89x, 1.68x -> 1.72x, 1.95x -> 1.93x, 2.25x -> 2.29x.
 
-use rayon::prelude::*;
+use crossbeam::queue::ArrayQueue;
 
 use super::options::BatchOptions;
 use crate::geom::Ray;
 use crate::parallel;
 
-/// Chunk length for `n` rays: at most `max_chunk`, and when parallel, small enough to give each
-/// thread about four chunks (but not below `min_chunk`).
-pub(crate) fn chunk_len(n: usize, options: &BatchOptions) -> usize {
-    let mut chunk = n.min(options.max_chunk);
-    if options.parallel {
-        let per_thread = n.div_ceil(4 * parallel::thread_count(true));
-        chunk = chunk.min(per_thread.max(options.min_chunk));
+/// The chunks of a batch of `n` rays for `threads` threads, in order, as ray ranges: each
+/// takes `1 / (2 * threads)` of the rays not yet handed out, within
+/// `[min_chunk, max_chunk]` (the last one takes whatever is left).
+pub(crate) fn plan(
+    n: usize,
+    threads: usize,
+    options: &BatchOptions,
+) -> Vec<std::ops::Range<usize>> {
+    let largest = options.max_chunk.max(1);
+    let smallest = options.min_chunk.clamp(1, largest);
+    let mut chunks = Vec::new();
+    let mut start = 0;
+    while start < n {
+        let share = (n - start).div_ceil(2 * threads.max(1));
+        let end = n.min(start + share.clamp(smallest, largest));
+        chunks.push(start..end);
+        start = end;
     }
-    chunk.max(1)
+    chunks
 }
 
 /// Runs `f(offset, rays, out)` on matching chunks of `rays` and `out` (`offset`: the chunk's
@@ -28,16 +48,67 @@ pub(crate) fn for_each_chunk<T: Send>(
     options: &BatchOptions,
     f: impl Fn(usize, &[Ray], &mut [T]) + Sync,
 ) {
-    let chunk = chunk_len(rays.len(), options);
-    if parallel::enabled(options.parallel) {
-        rays.par_chunks(chunk)
-            .zip(out.par_chunks_mut(chunk))
-            .enumerate()
-            .for_each(|(c, (r, o))| f(c * chunk, r, o));
-    } else {
+    let threads = parallel::thread_count(options.parallel);
+    if threads <= 1 {
+        let chunk = options.max_chunk.max(1);
         rays.chunks(chunk)
             .zip(out.chunks_mut(chunk))
             .enumerate()
             .for_each(|(c, (r, o))| f(c * chunk, r, o));
+        return;
+    }
+    let plan = plan(rays.len(), threads, options);
+    let queue = ArrayQueue::new(plan.len().max(1));
+    let mut rest = out;
+    for range in plan {
+        let (chunk, after) = rest.split_at_mut(range.len());
+        rest = after;
+        let item = (range.start, &rays[range], chunk);
+        // The queue holds one item per chunk of the plan.
+        assert!(queue.push(item).is_ok(), "the chunk queue is full");
+    }
+    let (queue, f) = (&queue, &f);
+    rayon::scope(|scope| {
+        for _ in 0..threads {
+            scope.spawn(move |_| {
+                while let Some((offset, rays, out)) = queue.pop() {
+                    f(offset, rays, out);
+                }
+            });
+        }
+    });
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The plan covers the batch in order with no gap, its chunks within the bounds (the last
+    /// one possibly smaller) and never growing.
+    #[test]
+    fn plans_cover_the_batch_with_shrinking_chunks() {
+        let options = BatchOptions::default()
+            .with_min_chunk(4096)
+            .with_max_chunk(1 << 17);
+        for n in [0, 1, 4095, 4096, 10_000, 131_072, 1_000_000, 3_333_333] {
+            for threads in [1, 2, 3, 8] {
+                let plan = plan(n, threads, &options);
+                let mut start = 0;
+                for (k, range) in plan.iter().enumerate() {
+                    assert_eq!(range.start, start, "n {n}, threads {threads}");
+                    assert!(range.len() <= 1 << 17 && !range.is_empty());
+                    assert!(range.len() >= 4096 || k + 1 == plan.len());
+                    if let Some(next) = plan.get(k + 1) {
+                        assert!(next.len() <= range.len(), "n {n}, threads {threads}");
+                    }
+                    start = range.end;
+                }
+                assert_eq!(start, n);
+            }
+        }
+        // A million rays on two threads: full chunks first, then shrinking ones.
+        let plan = plan(1_000_000, 2, &options);
+        assert_eq!(plan[0].len(), 1 << 17);
+        assert!(plan.len() > 10 && plan.last().unwrap().len() <= 4096);
     }
 }
