@@ -194,7 +194,7 @@ fn scatter(
         }
         done = rays.len() / 8 * 8;
     }
-    scatter_rest(rays, keys, done, cull, &mut placer, put);
+    scatter_rest(rays, keys, done, cull, &mut placer, &mut put);
     placer.next
 }
 
