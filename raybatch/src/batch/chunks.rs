@@ -58,7 +58,12 @@ pub(crate) fn for_each_chunk<T: Send>(
         return;
     }
     let plan = plan(rays.len(), threads, options);
-    let queue = ArrayQueue::new(plan.len().max(1));
+    if plan.len() <= 1 {
+        // One chunk (a game frame's call of a few thousand rays): no tasks to spawn.
+        return f(0, rays, out);
+    }
+    let workers = threads.min(plan.len());
+    let queue = ArrayQueue::new(plan.len());
     let mut rest = out;
     for range in plan {
         let (chunk, after) = rest.split_at_mut(range.len());
@@ -69,7 +74,7 @@ pub(crate) fn for_each_chunk<T: Send>(
     }
     let (queue, f) = (&queue, &f);
     rayon::scope(|scope| {
-        for _ in 0..threads {
+        for _ in 0..workers {
             scope.spawn(move |_| {
                 while let Some((offset, rays, out)) = queue.pop() {
                     f(offset, rays, out);

@@ -209,14 +209,11 @@ fn scatter_rest(
     mut put: impl FnMut(usize, PreparedRay),
 ) {
     for (id, (ray, &key)) in rays.iter().zip(keys).enumerate().skip(done) {
-        if (key as usize) < GROUPS {
-            let ray = PreparedRay::from_valid(ray);
-            let kept = cull.is_none_or(|bounds| bounds.hit_by(&ray, ray.tmax));
-            if let Some(slot) = placer.place(id, key, kept) {
-                put(slot, ray);
-            }
-        } else {
-            placer.place(id, key, false);
+        // An invalid ray (key `GROUPS`) is not prepared; `place` gives it no slot.
+        let ray = ((key as usize) < GROUPS).then(|| PreparedRay::from_valid(ray));
+        let kept = ray.is_some_and(|ray| cull.is_none_or(|bounds| bounds.hit_by(&ray, ray.tmax)));
+        if let (Some(slot), Some(ray)) = (placer.place(id, key, kept), ray) {
+            put(slot, ray);
         }
     }
 }

@@ -10,24 +10,12 @@ use crate::hit::{Any, Closest, CountingClosest, EachHit, Hit, Visitor};
 use crate::workspace::Workspace;
 
 /// Runs `visitor` over every hit of `ray` (prepared) with `kernel`, as ray number 0.
-///
-/// A ray that misses the structure's cull box ([`Accel::cull_bounds`], which the walk would
-/// test first) is answered here, before the thread's scratch is looked up and the kernel
-/// dispatched: those steps cost a ray that misses everything about 290 of its 390
-/// instructions (callgrind, line-of-sight segments 10 km off the fandisk), and six in ten of
-/// the fandisk's line-of-sight segments miss its box.
 pub fn trace_one<A: Accel, V: Visitor>(
     accel: &A,
     ray: &PreparedRay,
     kernel: Kernel,
     visitor: &mut V,
 ) {
-    if accel
-        .cull_bounds()
-        .is_some_and(|bounds| !bounds.hit_by(ray, ray.tmax))
-    {
-        return;
-    }
     Workspace::with_local(|workspace| {
         let scratch = workspace.scratch::<A::Scratch>();
         kernel.dispatch(
