@@ -3,7 +3,8 @@
 //! A chunk is traversed as one batch: bigger chunks share each node fetch among more rays,
 //! smaller ones keep the working set in cache and give every thread work.
 //!
-//! On one thread the batch is cut into chunks of [`BatchOptions::max_chunk`] rays. On several,
+//! On one thread the batch is cut into chunks of [`BatchOptions::max_chunk`] rays (or the
+//! structure's own, [`StreamLayout::default_max_chunk`]). On several,
 //! chunks shrink as the batch runs out (guided scheduling): each is a share of the rays still
 //! waiting, so the threads start on large chunks and finish on small ones, and none sits idle
 //! while another works through a large last chunk. Threads take the chunks in order from one
@@ -16,19 +17,18 @@
 use crossbeam::queue::ArrayQueue;
 
 use super::options::BatchOptions;
+use crate::accel::StreamLayout;
 use crate::geom::Ray;
 use crate::parallel;
 
 /// The chunks of a batch of `n` rays for `threads` threads, in order, as ray ranges: each
-/// takes `1 / (2 * threads)` of the rays not yet handed out, within
-/// `[min_chunk, max_chunk]` (the last one takes whatever is left).
+/// takes `1 / (2 * threads)` of the rays not yet handed out, within `[smallest, largest]`
+/// ([`BatchOptions::chunk_bounds`]; the last one takes whatever is left).
 pub(crate) fn plan(
     n: usize,
     threads: usize,
-    options: &BatchOptions,
+    (smallest, largest): (usize, usize),
 ) -> Vec<std::ops::Range<usize>> {
-    let largest = options.max_chunk.max(1);
-    let smallest = options.min_chunk.clamp(1, largest);
     let mut chunks = Vec::new();
     let mut start = 0;
     while start < n {
@@ -41,23 +41,25 @@ pub(crate) fn plan(
 }
 
 /// Runs `f(offset, rays, out)` on matching chunks of `rays` and `out` (`offset`: the chunk's
-/// first ray in the batch), in parallel when `options.parallel` and threads are available.
+/// first ray in the batch) for a structure of `layout`, in parallel when `options.parallel`
+/// and threads are available.
 pub(crate) fn for_each_chunk<T: Send>(
     rays: &[Ray],
     out: &mut [T],
-    options: &BatchOptions,
+    (options, layout): (&BatchOptions, StreamLayout),
     f: impl Fn(usize, &[Ray], &mut [T]) + Sync,
 ) {
     let threads = parallel::thread_count(options.parallel);
+    let bounds = options.chunk_bounds(layout);
     if threads <= 1 {
-        let chunk = options.max_chunk.max(1);
+        let chunk = bounds.1;
         rays.chunks(chunk)
             .zip(out.chunks_mut(chunk))
             .enumerate()
             .for_each(|(c, (r, o))| f(c * chunk, r, o));
         return;
     }
-    let plan = plan(rays.len(), threads, options);
+    let plan = plan(rays.len(), threads, bounds);
     if plan.len() <= 1 {
         // One chunk (a game frame's call of a few thousand rays): no tasks to spawn.
         return f(0, rays, out);
@@ -95,9 +97,10 @@ mod tests {
         let options = BatchOptions::default()
             .with_min_chunk(4096)
             .with_max_chunk(1 << 17);
+        let bounds = options.chunk_bounds(StreamLayout::Records);
         for n in [0, 1, 4095, 4096, 10_000, 131_072, 1_000_000, 3_333_333] {
             for threads in [1, 2, 3, 8] {
-                let plan = plan(n, threads, &options);
+                let plan = plan(n, threads, bounds);
                 let mut start = 0;
                 for (k, range) in plan.iter().enumerate() {
                     assert_eq!(range.start, start, "n {n}, threads {threads}");
@@ -112,7 +115,7 @@ mod tests {
             }
         }
         // A million rays on two threads: full chunks first, then shrinking ones.
-        let plan = plan(1_000_000, 2, &options);
+        let plan = plan(1_000_000, 2, bounds);
         assert_eq!(plan[0].len(), 1 << 17);
         assert!(plan.len() > 10 && plan.last().unwrap().len() <= 4096);
     }

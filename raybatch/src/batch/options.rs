@@ -1,5 +1,6 @@
 //! Options of the batched queries.
 
+use crate::accel::StreamLayout;
 use crate::geom::Kernel;
 
 use super::partition::PartitionKernel;
@@ -76,16 +77,20 @@ pub struct BatchOptions {
     pub min_batch: usize,
     /// Smallest chunk handed to one rayon task.
     pub min_chunk: usize,
-    /// Largest chunk traversed as one batch: bigger chunks share each node fetch among more
-    /// rays, smaller ones keep the working set in cache. The default, 131,072 rays (8 MiB of
-    /// prepared rays), was measured against 1M-ray chunks on an Intel Xeon with AVX-512 (one
-    /// thread, 1M incoherent rays, `raybatch query --batched`, best of 2 x 3 passes): closest
-    /// hit fandisk 131 -> 95 ms, teapot 129 -> 83, bunny 166 -> 134; line-of-sight any hit
-    /// fandisk 74 -> 48, bunny 93 -> 70. The stream splits jump between rays by id, and a
-    /// chunk's prepared rays outgrow the caches long before node sharing stops paying (chunks
-    /// of 256k rays measured the same, 64k and below slower). Not the TLB: with transparent
-    /// huge pages on, 1M-ray chunks still took 131 ms on the fandisk.
-    pub max_chunk: usize,
+    /// Largest chunk traversed as one batch; `None` (the default) leaves it to the structure
+    /// ([`crate::accel::StreamLayout::default_max_chunk`]). Bigger chunks share each node and
+    /// leaf among more rays (a chunk is walked as eight streams, one per direction octant), at
+    /// about 90 bytes of working memory a ray, which the thread keeps for its next call. The
+    /// structures walked over records (the wide trees, grids, kd-tree) take 1,048,576 rays
+    /// (some 90 MiB per thread), against the 131,072 of before, measured on the AMD EPYC (Zen
+    /// 4; `bvh4`, one thread, 1M incoherent rays, best of 5 alternated in one process, with
+    /// the split's prefetch): closest hit bunny 163.6 -> 131.3 ms, fandisk 98.9 -> 89.7,
+    /// teapot 79.0 -> 82.6; line-of-sight any hit bunny 74.1 -> 60.1, fandisk 39.7 -> 34.0,
+    /// teapot 35.2 -> 29.7 (`wide::stream`'s walk length has the whole sweep). Earlier, on an
+    /// Intel Xeon and before the split prefetched its rays, 1M-ray chunks were slower than
+    /// 128k ones (fandisk 131 against 95 ms): where memory is slow or scarce,
+    /// `with_max_chunk(131_072)` is the setting to try.
+    pub max_chunk: Option<usize>,
     /// A node reached by fewer rays than this finishes its subtree one ray at a time.
     pub single_ray_below: usize,
     /// Of those, a node reached by at least this many rays (and at most eight) finishes its
@@ -111,7 +116,7 @@ impl Default for BatchOptions {
             parallel: true,
             min_batch: 2048,
             min_chunk: 4096,
-            max_chunk: 1 << 17,
+            max_chunk: None,
             single_ray_below: 8,
             packet_from: 2,
             partition: PartitionKernel::detect(),
@@ -146,9 +151,16 @@ impl BatchOptions {
         self.min_chunk = min_chunk.max(1);
         self
     }
+    /// The smallest and the largest chunk for a structure of `layout` (both at least 1, the
+    /// smallest no larger than the largest).
+    pub(crate) fn chunk_bounds(&self, layout: StreamLayout) -> (usize, usize) {
+        let largest = self.max_chunk.unwrap_or(layout.default_max_chunk()).max(1);
+        (self.min_chunk.clamp(1, largest), largest)
+    }
+
     /// With [`BatchOptions::max_chunk`] (at least 1).
     pub fn with_max_chunk(mut self, max_chunk: usize) -> Self {
-        self.max_chunk = max_chunk.max(1);
+        self.max_chunk = Some(max_chunk.max(1));
         self
     }
     /// With [`BatchOptions::single_ray_below`].

@@ -174,26 +174,31 @@ pub trait BatchQueries: Accel {
             return Ok(());
         }
         let partitioner = options.partition.checked();
-        for_each_chunk(rays, hits, options, |_, rays, hits| {
-            with_chunk::<Self, _>(
-                (rays, self.cull_bounds()),
-                options,
-                partitioner,
-                |mut chunk, answers| {
-                    let Answers { slots, best, .. } = answers;
-                    // "No hit before +inf": a hit at the ray's own `tmax` still wins (`Closest`
-                    // compares it with the record's `tmax`, then by the tie rule with this), so
-                    // the answers equal those of `Hit::none_before(ray.tmax)`, without a gather.
-                    best.clear();
-                    best.resize(slots.dead() + 1, Hit::none_before(f32::INFINITY));
-                    chunk.trace(self, &mut Closest { best });
-                    // In position order: sequential writes (invalid rays have no slot: a miss).
-                    for (out, &slot) in hits.iter_mut().zip(&slots.of_position) {
-                        *out = best.get(slot as usize).and_then(|hit| hit.found());
-                    }
-                },
-            )
-        });
+        for_each_chunk(
+            rays,
+            hits,
+            (options, Self::STREAM_LAYOUT),
+            |_, rays, hits| {
+                with_chunk::<Self, _>(
+                    (rays, self.cull_bounds()),
+                    options,
+                    partitioner,
+                    |mut chunk, answers| {
+                        let Answers { slots, best, .. } = answers;
+                        // "No hit before +inf": a hit at the ray's own `tmax` still wins (`Closest`
+                        // compares it with the record's `tmax`, then by the tie rule with this), so
+                        // the answers equal those of `Hit::none_before(ray.tmax)`, without a gather.
+                        best.clear();
+                        best.resize(slots.dead() + 1, Hit::none_before(f32::INFINITY));
+                        chunk.trace(self, &mut Closest { best });
+                        // In position order: sequential writes (invalid rays have no slot: a miss).
+                        for (out, &slot) in hits.iter_mut().zip(&slots.of_position) {
+                            *out = best.get(slot as usize).and_then(|hit| hit.found());
+                        }
+                    },
+                )
+            },
+        );
         Ok(())
     }
 
@@ -218,24 +223,29 @@ pub trait BatchQueries: Accel {
             return Ok(());
         }
         let partitioner = options.partition.checked();
-        for_each_chunk(rays, occluded, options, |_, rays, out| {
-            with_chunk::<Self, _>(
-                (rays, self.cull_bounds()),
-                options,
-                partitioner,
-                |mut chunk, answers| {
-                    let Answers {
-                        slots, occluded, ..
-                    } = answers;
-                    occluded.clear();
-                    occluded.resize(slots.dead() + 1, false);
-                    chunk.trace(self, &mut Any { occluded });
-                    for (out, &slot) in out.iter_mut().zip(&slots.of_position) {
-                        *out = occluded.get(slot as usize).copied().unwrap_or(false);
-                    }
-                },
-            )
-        });
+        for_each_chunk(
+            rays,
+            occluded,
+            (options, Self::STREAM_LAYOUT),
+            |_, rays, out| {
+                with_chunk::<Self, _>(
+                    (rays, self.cull_bounds()),
+                    options,
+                    partitioner,
+                    |mut chunk, answers| {
+                        let Answers {
+                            slots, occluded, ..
+                        } = answers;
+                        occluded.clear();
+                        occluded.resize(slots.dead() + 1, false);
+                        chunk.trace(self, &mut Any { occluded });
+                        for (out, &slot) in out.iter_mut().zip(&slots.of_position) {
+                            *out = occluded.get(slot as usize).copied().unwrap_or(false);
+                        }
+                    },
+                )
+            },
+        );
         Ok(())
     }
 
@@ -262,24 +272,29 @@ pub trait BatchQueries: Accel {
         let partitioner = options.partition.checked();
         // No output slice: chunks are matched with zero-sized slots.
         let mut slots = vec![(); rays.len()];
-        for_each_chunk(rays, &mut slots, options, |offset, rays, _| {
-            with_chunk::<Self, _>(
-                (rays, self.cull_bounds()),
-                options,
-                partitioner,
-                |mut chunk, answers| {
-                    let positions = &answers.slots.positions;
-                    chunk.trace(
-                        self,
-                        &mut Every {
-                            offset,
-                            positions,
-                            f: &f,
-                        },
-                    );
-                },
-            )
-        });
+        for_each_chunk(
+            rays,
+            &mut slots,
+            (options, Self::STREAM_LAYOUT),
+            |offset, rays, _| {
+                with_chunk::<Self, _>(
+                    (rays, self.cull_bounds()),
+                    options,
+                    partitioner,
+                    |mut chunk, answers| {
+                        let positions = &answers.slots.positions;
+                        chunk.trace(
+                            self,
+                            &mut Every {
+                                offset,
+                                positions,
+                                f: &f,
+                            },
+                        );
+                    },
+                )
+            },
+        );
     }
 }
 

@@ -180,12 +180,20 @@ fn trace_blocks<N: NodeKind, K: TriangleTest, V: Visitor>(
     }
 }
 
-/// Rays per walk. Longer walks share each node among more rays, so more of the split runs
-/// eight rays at a time and fewer rays finish alone; their index lists outgrow the caches, but
-/// they are read in order. Measured (1M incoherent rays, one thread, nodes shared, best of 5 x 3
-/// passes, ms): fandisk 151 / 146 / 139 / 132 / 124 / 118 / 124 for 2k / 4k / 8k / 16k / 32k /
-/// 64k / 256k rays; bunny 187 / 168 / 168 for 8k / 64k / 256k.
-const BLOCK: usize = 1 << 16;
+/// Rays per walk, at least a default chunk's octant stream. Longer walks share each node and
+/// leaf among more rays, so more of the split and of the leaf tests run eight rays at a time
+/// and fewer rays finish alone; their records outgrow the caches, so the split prefetches them
+/// (`simd::PREFETCH_GROUPS`). Measured with the chunk as long (1M incoherent rays, one thread,
+/// closest hit, best of 5 alternated in one process, ms; walks of 64k in chunks of 128k without
+/// the prefetch, then 128k / 256k / 512k / 1M with it): bunny 182.9, 163.6 / 151.7 / 138.5 /
+/// 131.3; fandisk 102.5, 98.9 / 89.9 / 85.2 / 89.7; teapot 80.0, 79.0 / 77.1 / 76.2 / 82.6. Line
+/// of sight, any hit: bunny 84.8, 74.1 / 70.4 / 67.0 / 60.1; fandisk 40.9, 39.7 / 39.0 / 36.3 /
+/// 34.0; teapot 35.5, 35.2 / 33.6 / 32.2 / 29.7. (Before the prefetch, walks longer than 64k
+/// were slower: the split waited on each ray's record.) Copying the rays of a list of at most
+/// 1k / 4k / 16k rays next to each other before walking its subtree (so that the deeper splits
+/// read the caches) was slower than reading them in place, prefetched: bunny 146.9 / 152.9 /
+/// 160.4 against 131.4 ms.
+const BLOCK: usize = 1 << 20;
 
 // `split` counts a node's rays per child in 32-bit fields.
 const _: () = assert!(BLOCK <= u32::MAX as usize);
