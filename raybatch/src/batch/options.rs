@@ -78,18 +78,14 @@ pub struct BatchOptions {
     /// Smallest chunk handed to one rayon task.
     pub min_chunk: usize,
     /// Largest chunk traversed as one batch; `None` (the default) leaves it to the structure
-    /// ([`crate::accel::StreamLayout::default_max_chunk`]). Bigger chunks share each node and
-    /// leaf among more rays (a chunk is walked as eight streams, one per direction octant), at
-    /// about 90 bytes of working memory a ray, which the thread keeps for its next call. The
-    /// structures walked over records (the wide trees, grids, kd-tree) take 1,048,576 rays
-    /// (some 90 MiB per thread), against the 131,072 of before, measured on the AMD EPYC (Zen
-    /// 4; `bvh4`, one thread, 1M incoherent rays, best of 5 alternated in one process, with
-    /// the split's prefetch): closest hit bunny 163.6 -> 131.3 ms, fandisk 98.9 -> 89.7,
-    /// teapot 79.0 -> 82.6; line-of-sight any hit bunny 74.1 -> 60.1, fandisk 39.7 -> 34.0,
-    /// teapot 35.2 -> 29.7 (`wide::stream`'s walk length has the whole sweep). Earlier, on an
-    /// Intel Xeon and before the split prefetched its rays, 1M-ray chunks were slower than
-    /// 128k ones (fandisk 131 against 95 ms): where memory is slow or scarce,
-    /// `with_max_chunk(131_072)` is the setting to try.
+    /// ([`crate::accel::StreamLayout::default_max_chunk`]: 1,048,576 rays for the structures
+    /// walked over records, the wide trees, grids and kd-tree; 131,072 for those that move
+    /// lanes). Bigger chunks share each node and leaf among more rays (a chunk is walked as
+    /// eight streams, one per direction octant; the measured sweep is at `wide::stream`'s walk
+    /// length), at about 90 bytes of working memory a ray, which the thread keeps for its next
+    /// call: some 90 MiB per thread for a 1M-ray chunk. On an Intel Xeon, before the split
+    /// prefetched its rays, 1M-ray chunks were slower than 128k ones (fandisk 131 against 95
+    /// ms): where memory is slow or scarce, `with_max_chunk(131_072)` is the setting to try.
     pub max_chunk: Option<usize>,
     /// A node reached by fewer rays than this finishes its subtree one ray at a time.
     pub single_ray_below: usize,

@@ -151,6 +151,25 @@ fn with_chunk<A: Accel, R>(
     })
 }
 
+/// Runs `f(offset, out, chunk, answers)` on each chunk of `rays` (`offset`: its first ray in
+/// the batch; `out`: its part of `out`), prepared for `accel` in the running thread's
+/// workspace, with chunks as long as `options` and `accel`'s layout allow.
+fn for_each_prepared_chunk<A: Accel, T: Send>(
+    accel: &A,
+    (rays, out): (&[Ray], &mut [T]),
+    options: &BatchOptions,
+    f: impl Fn(usize, &mut [T], Chunk<'_, A::Scratch>, Answers<'_>) + Sync,
+) {
+    let partitioner = options.partition.checked();
+    let cull = accel.cull_bounds();
+    let layout = (options, A::STREAM_LAYOUT);
+    for_each_chunk(rays, out, layout, |offset, rays, out| {
+        with_chunk::<A, _>((rays, cull), options, partitioner, |chunk, answers| {
+            f(offset, out, chunk, answers)
+        })
+    });
+}
+
 /// The batched queries, for every [`Accel`]. Output slices must be as long as `rays`.
 pub trait BatchQueries: Accel {
     /// Closest hit of every ray (`hits[i]` for `rays[i]`), identical to
@@ -173,30 +192,22 @@ pub trait BatchQueries: Accel {
             }
             return Ok(());
         }
-        let partitioner = options.partition.checked();
-        for_each_chunk(
-            rays,
-            hits,
-            (options, Self::STREAM_LAYOUT),
-            |_, rays, hits| {
-                with_chunk::<Self, _>(
-                    (rays, self.cull_bounds()),
-                    options,
-                    partitioner,
-                    |mut chunk, answers| {
-                        let Answers { slots, best, .. } = answers;
-                        // "No hit before +inf": a hit at the ray's own `tmax` still wins (`Closest`
-                        // compares it with the record's `tmax`, then by the tie rule with this), so
-                        // the answers equal those of `Hit::none_before(ray.tmax)`, without a gather.
-                        best.clear();
-                        best.resize(slots.dead() + 1, Hit::none_before(f32::INFINITY));
-                        chunk.trace(self, &mut Closest { best });
-                        // In position order: sequential writes (invalid rays have no slot: a miss).
-                        for (out, &slot) in hits.iter_mut().zip(&slots.of_position) {
-                            *out = best.get(slot as usize).and_then(|hit| hit.found());
-                        }
-                    },
-                )
+        for_each_prepared_chunk(
+            self,
+            (rays, hits),
+            options,
+            |_, hits, mut chunk, answers| {
+                let Answers { slots, best, .. } = answers;
+                // "No hit before +inf": a hit at the ray's own `tmax` still wins (`Closest`
+                // compares it with the record's `tmax`, then by the tie rule with this), so the
+                // answers equal those of `Hit::none_before(ray.tmax)`, without a gather.
+                best.clear();
+                best.resize(slots.dead() + 1, Hit::none_before(f32::INFINITY));
+                chunk.trace(self, &mut Closest { best });
+                // In position order: sequential writes (invalid rays have no slot: a miss).
+                for (out, &slot) in hits.iter_mut().zip(&slots.of_position) {
+                    *out = best.get(slot as usize).and_then(|hit| hit.found());
+                }
             },
         );
         Ok(())
@@ -222,28 +233,20 @@ pub trait BatchQueries: Accel {
             }
             return Ok(());
         }
-        let partitioner = options.partition.checked();
-        for_each_chunk(
-            rays,
-            occluded,
-            (options, Self::STREAM_LAYOUT),
-            |_, rays, out| {
-                with_chunk::<Self, _>(
-                    (rays, self.cull_bounds()),
-                    options,
-                    partitioner,
-                    |mut chunk, answers| {
-                        let Answers {
-                            slots, occluded, ..
-                        } = answers;
-                        occluded.clear();
-                        occluded.resize(slots.dead() + 1, false);
-                        chunk.trace(self, &mut Any { occluded });
-                        for (out, &slot) in out.iter_mut().zip(&slots.of_position) {
-                            *out = occluded.get(slot as usize).copied().unwrap_or(false);
-                        }
-                    },
-                )
+        for_each_prepared_chunk(
+            self,
+            (rays, occluded),
+            options,
+            |_, out, mut chunk, answers| {
+                let Answers {
+                    slots, occluded, ..
+                } = answers;
+                occluded.clear();
+                occluded.resize(slots.dead() + 1, false);
+                chunk.trace(self, &mut Any { occluded });
+                for (out, &slot) in out.iter_mut().zip(&slots.of_position) {
+                    *out = occluded.get(slot as usize).copied().unwrap_or(false);
+                }
             },
         );
         Ok(())
@@ -269,30 +272,22 @@ pub trait BatchQueries: Accel {
             }
             return;
         }
-        let partitioner = options.partition.checked();
         // No output slice: chunks are matched with zero-sized slots.
         let mut slots = vec![(); rays.len()];
-        for_each_chunk(
-            rays,
-            &mut slots,
-            (options, Self::STREAM_LAYOUT),
-            |offset, rays, _| {
-                with_chunk::<Self, _>(
-                    (rays, self.cull_bounds()),
-                    options,
-                    partitioner,
-                    |mut chunk, answers| {
-                        let positions = &answers.slots.positions;
-                        chunk.trace(
-                            self,
-                            &mut Every {
-                                offset,
-                                positions,
-                                f: &f,
-                            },
-                        );
+        for_each_prepared_chunk(
+            self,
+            (rays, &mut slots),
+            options,
+            |offset, _, mut chunk, answers| {
+                let positions = &answers.slots.positions;
+                chunk.trace(
+                    self,
+                    &mut Every {
+                        offset,
+                        positions,
+                        f: &f,
                     },
-                )
+                );
             },
         );
     }

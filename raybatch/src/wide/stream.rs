@@ -31,7 +31,7 @@ use super::kind::order_slots;
 use super::node::{BoxSimd, WideRay};
 use super::stack::Stack;
 use super::{NodeKind, WideBvh, WideScratch};
-use crate::accel::RayStream;
+use crate::accel::{RayStream, StreamLayout};
 use crate::bvh::nodes::leaf_word;
 #[cfg(target_arch = "x86_64")]
 use crate::geom::sign_filter::RayOctet;
@@ -180,7 +180,9 @@ fn trace_blocks<N: NodeKind, K: TriangleTest, V: Visitor>(
     }
 }
 
-/// Rays per walk, at least a default chunk's octant stream. Longer walks share each node and
+/// Rays per walk: a default chunk of the record layout, so that each of its octant streams is
+/// walked whole (a longer chunk, from [`crate::BatchOptions::max_chunk`], is walked in parts
+/// this long). Longer walks share each node and
 /// leaf among more rays, so more of the split and of the leaf tests run eight rays at a time
 /// and fewer rays finish alone; their records outgrow the caches, so the split prefetches them
 /// (`simd::PREFETCH_GROUPS`). Measured with the chunk as long (1M incoherent rays, one thread,
@@ -193,7 +195,7 @@ fn trace_blocks<N: NodeKind, K: TriangleTest, V: Visitor>(
 /// 1k / 4k / 16k rays next to each other before walking its subtree (so that the deeper splits
 /// read the caches) was slower than reading them in place, prefetched: bunny 146.9 / 152.9 /
 /// 160.4 against 131.4 ms.
-const BLOCK: usize = 1 << 20;
+const BLOCK: usize = StreamLayout::Records.default_max_chunk();
 
 // `split` counts a node's rays per child in 32-bit fields.
 const _: () = assert!(BLOCK <= u32::MAX as usize);
