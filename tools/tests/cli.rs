@@ -307,8 +307,8 @@ fn batched_and_threaded_output_equals_per_ray_output() {
     }
 }
 
-/// `--passes` and `--batch-size` change the timing, never the output; the JSON line reports
-/// every pass.
+/// `--passes`, `--batch-size` and `--max-chunk` change the timing, never the output; the JSON
+/// line reports every pass and the chunk asked for.
 #[test]
 fn passes_and_batch_size_keep_the_output() {
     let dir = TempDir::new("passes");
@@ -331,6 +331,11 @@ fn passes_and_batch_size_keep_the_output() {
             .nth(1)
             .and_then(|r| r.split(']').next());
         assert_eq!(passes.map(|p| p.split(',').count()), Some(3), "{line}");
+        // Chunks of 7 rays: many chunks, each walked on its own; the same answers.
+        let extra = [base.as_slice(), &["--batched", "--max-chunk", "7"]].concat();
+        let (bytes, line) = query_ok(&dir, &mesh, &rays_path, &extra);
+        assert!(bytes == expected, "{extra:?}: output differs");
+        assert_eq!(json_int(&line, "max_chunk"), Some(7), "{line}");
     }
 }
 

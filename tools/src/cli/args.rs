@@ -134,6 +134,11 @@ pub struct QueryArgs {
     /// e.g. 4096 for a game frame's line-of-sight work.
     #[arg(long, value_name = "N", value_parser = positive)]
     pub batch_size: Option<usize>,
+    /// With --batched, the largest chunk the engine walks at once [default: the structure's
+    /// own: 1,048,576 rays for the wide trees, grids and kd-tree, 131,072 for the others];
+    /// larger chunks share nodes among more rays and take about 90 bytes a ray.
+    #[arg(long, value_name = "N", value_parser = positive)]
+    pub max_chunk: Option<usize>,
     /// Keep a copy of each triangle's corners in leaf order (36 more bytes per triangle, fewer
     /// dependent loads; the same answers).
     #[arg(long)]

@@ -106,6 +106,9 @@ fn query_for(args: &QueryArgs) -> Query {
     if let Some(n) = args.batch_size {
         query = query.with_batch_size(n);
     }
+    if let Some(n) = args.max_chunk {
+        query = query.with_max_chunk(n);
+    }
     query.with_interleave(args.interleave)
 }
 
@@ -122,6 +125,10 @@ fn report(args: &QueryArgs, triangles: usize, answers: &Answers) -> JsonLine {
         .num("query_ms", answers.query.seconds * 1e3)
         .num("mrays_per_s", answers.query.mrays_per_s())
         .int("hits", answers.query.hits);
+    let line = match args.max_chunk {
+        Some(n) => line.int("max_chunk", n),
+        None => line,
+    };
     match (args.passes, args.batch_size) {
         (None, None) => line,
         _ => {

@@ -86,6 +86,9 @@ pub struct Query {
     pub batch_size: Option<usize>,
     /// Whether the batched engine walks rays side by side ([`BatchOptions::interleave`]).
     pub interleave: Interleave,
+    /// Largest chunk of the batched engine ([`BatchOptions::max_chunk`]; `None`: the
+    /// structure's own).
+    pub max_chunk: Option<usize>,
 }
 
 impl Query {
@@ -98,6 +101,7 @@ impl Query {
             threads: None,
             batch_size: None,
             interleave: Interleave::Auto,
+            max_chunk: None,
         }
     }
 
@@ -112,6 +116,14 @@ impl Query {
     /// The same query with [`BatchOptions::interleave`] set to `interleave`.
     pub fn with_interleave(self, interleave: Interleave) -> Self {
         Self { interleave, ..self }
+    }
+
+    /// The same query with [`BatchOptions::max_chunk`] set to `max_chunk` rays.
+    pub fn with_max_chunk(self, max_chunk: usize) -> Self {
+        Self {
+            max_chunk: Some(max_chunk.max(1)),
+            ..self
+        }
     }
 
     /// Rays per call of the batched engine for a set of `n` rays.
@@ -146,10 +158,11 @@ impl Query {
 
     /// The options of the batched engine (the defaults for the per-ray one).
     fn batch_options(&self) -> BatchOptions {
-        let options = BatchOptions::default()
+        let mut options = BatchOptions::default()
             .with_kernel(self.kernel)
             .with_parallel(self.parallel())
             .with_interleave(self.interleave);
+        options.max_chunk = self.max_chunk;
         match self.engine {
             Engine::PerRay => options,
             Engine::Batched {
