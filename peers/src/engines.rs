@@ -154,9 +154,10 @@ pub fn raybatch(
         })
     });
     let structure = format!(
-        "{}, leaf <= {}, {:?} ordering, {:.1} B/tri",
+        "{}, leaf <= {} (wide trees: <= {}), {:?} ordering, {:.1} B/tri",
         kind.summary(),
         options.max_leaf_size,
+        options.wide_leaf_size,
         options.ordering,
         tree.bytes_per_triangle()
     );

@@ -11,7 +11,6 @@ use std::sync::Arc;
 
 use crate::accel::{Accel, Footprint};
 use crate::batch::BatchOptions;
-use crate::bvh::build::MAX_LEAF_SIZE;
 use crate::bvh::{AabbTree, BuildError, BuildOptions, QuantizedAabbTree};
 use crate::geom::{Kernel, Ray};
 use crate::grid::{GridOptions, SpatialHash, UniformGrid};
@@ -128,6 +127,12 @@ impl AccelKind {
         }
     }
 
+    /// Whether the structure is a wide tree, whose leaves follow
+    /// [`BuildOptions::wide_leaf_size`].
+    pub fn is_wide(self) -> bool {
+        matches!(self, AccelKind::Bvh4 | AccelKind::Bvh8 | AccelKind::Bvh4q)
+    }
+
     /// The kind called `name` (see [`AccelKind::name`]).
     pub fn from_name(name: &str) -> Option<Self> {
         Self::ALL.into_iter().find(|k| k.name() == name)
@@ -142,9 +147,7 @@ impl AccelKind {
         options: &BuildOptions,
     ) -> Result<AnyAccel, BuildError> {
         let mesh = mesh.into();
-        if !(1..=MAX_LEAF_SIZE).contains(&options.max_leaf_size) {
-            return Err(BuildError::BadLeafSize(options.max_leaf_size));
-        }
+        options.validate()?;
         Ok(match self {
             AccelKind::Aabb => AnyAccel::new(<AabbTree>::build(mesh, options)?),
             AccelKind::Quantized => AnyAccel::new(QuantizedAabbTree::build(mesh, options)?),

@@ -256,8 +256,10 @@ fn bad_leaf_sizes() {
     let mesh = Mesh::new(tri(), vec![[0, 1, 2]]).unwrap();
     let empty = Mesh::new(vec![], vec![]).unwrap();
     for m in [mesh, empty] {
-        for leaf in [0u32, 17, 100, u32::MAX] {
-            let options = BuildOptions::default().with_leaf_size(leaf);
+        let bad_sizes = [0u32, 17, 100, u32::MAX].into_iter();
+        let with_leaf = |leaf| BuildOptions::default().with_leaf_size(leaf);
+        let with_wide_leaf = |leaf| BuildOptions::default().with_wide_leaf_size(leaf);
+        for (leaf, options) in bad_sizes.flat_map(|l| [(l, with_leaf(l)), (l, with_wide_leaf(l))]) {
             assert_eq!(
                 <AabbTree>::build(m.clone(), &options).err(),
                 Some(BuildError::BadLeafSize(leaf))
@@ -280,8 +282,8 @@ fn bad_leaf_sizes() {
                     .contains(&leaf.to_string())
             );
         }
-        for leaf in [1u32, 16] {
-            let options = BuildOptions::default().with_leaf_size(leaf);
+        let good_sizes = [1u32, 16].into_iter();
+        for options in good_sizes.flat_map(|l| [with_leaf(l), with_wide_leaf(l)]) {
             assert!(<AabbTree>::build(m.clone(), &options).is_ok());
             assert!(QuantizedAabbTree::build(m.clone(), &options).is_ok());
             for kind in AccelKind::ALL {

@@ -47,6 +47,12 @@ pub struct BuildOptions {
     /// that a leaf's triangles are read from one contiguous block instead of through the
     /// mesh's index array (two dependent loads per triangle, scattered over the mesh).
     pub leaf_corners: bool,
+    /// The wide trees (`WideTree`, `WideTree8`, `QuantizedWideTree`) only: the most triangles a
+    /// leaf may hold when their collapse turns a small binary subtree into one leaf, which it
+    /// does where the surface area heuristic with a wide node's cost says the leaf is cheaper
+    /// (1 to [`MAX_LEAF_SIZE`], the default; at or below `max_leaf_size` nothing is merged, so
+    /// 1 gives the binary tree's leaves). See `wide::collapse`.
+    pub wide_leaf_size: u32,
 }
 
 impl Default for BuildOptions {
@@ -56,6 +62,7 @@ impl Default for BuildOptions {
             ordering: ChildOrdering::Pns,
             parallel: true,
             leaf_corners: false,
+            wide_leaf_size: MAX_LEAF_SIZE,
         }
     }
 }
@@ -79,6 +86,23 @@ impl BuildOptions {
         self
     }
 
+    /// [`BuildError::BadLeafSize`] if a leaf size is out of `1..=MAX_LEAF_SIZE` (checked by every
+    /// build, whether or not the structure reads that size).
+    pub fn validate(&self) -> Result<(), BuildError> {
+        for size in [self.max_leaf_size, self.wide_leaf_size] {
+            if !(1..=MAX_LEAF_SIZE).contains(&size) {
+                return Err(BuildError::BadLeafSize(size));
+            }
+        }
+        Ok(())
+    }
+
+    /// With [`BuildOptions::wide_leaf_size`].
+    pub fn with_wide_leaf_size(mut self, wide_leaf_size: u32) -> Self {
+        self.wide_leaf_size = wide_leaf_size;
+        self
+    }
+
     /// With [`BuildOptions::leaf_corners`].
     pub fn with_leaf_corners(mut self, leaf_corners: bool) -> Self {
         self.leaf_corners = leaf_corners;
@@ -89,7 +113,7 @@ impl BuildOptions {
 /// Why a tree could not be built.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub enum BuildError {
-    /// `max_leaf_size` is 0 or above [`MAX_LEAF_SIZE`].
+    /// `max_leaf_size` or `wide_leaf_size` is 0 or above [`MAX_LEAF_SIZE`].
     BadLeafSize(u32),
     /// The mesh needs more nodes or triangle slots than the node format can address.
     TooLarge {
@@ -226,9 +250,7 @@ struct TempNode {
 
 /// Builds the tree over the non-degenerate triangles of `mesh`.
 pub fn build(mesh: &Mesh, options: &BuildOptions) -> Result<BuiltTree, BuildError> {
-    if options.max_leaf_size == 0 || options.max_leaf_size > MAX_LEAF_SIZE {
-        return Err(BuildError::BadLeafSize(options.max_leaf_size));
-    }
+    options.validate()?;
     let mut prims = prims_of(mesh);
     if prims.is_empty() {
         return Ok(BuiltTree::default());

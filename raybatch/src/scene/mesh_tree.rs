@@ -11,8 +11,7 @@ use std::sync::Arc;
 use glam::Vec3;
 
 use crate::accel::{Accel, Footprint, RayStream, StreamLayout};
-use crate::bvh::build::MAX_LEAF_SIZE;
-use crate::bvh::{AabbTree, BuildError, BuildOptions, Bvh, QuantizedAabbTree};
+use crate::bvh::{AabbTree, BuildOptions, Bvh, QuantizedAabbTree};
 use crate::catalog::{AccelKind, too_large};
 use crate::geom::{Aabb, PreparedRay, TriangleTest};
 use crate::grid::{GridOptions, SpatialHash, UniformGrid};
@@ -79,9 +78,7 @@ impl MeshTree {
     ) -> Result<Self, SceneError> {
         let mesh = mesh.into();
         // The zero-byte builds reject a bad leaf size with an error `too_large` does not map.
-        if !(1..=MAX_LEAF_SIZE).contains(&options.max_leaf_size) {
-            return Err(BuildError::BadLeafSize(options.max_leaf_size).into());
-        }
+        options.validate()?;
         let bounds = mesh.bounds();
         let tree = match kind {
             AccelKind::Aabb => Tree::Aabb(AabbTree::build(mesh, options)?),

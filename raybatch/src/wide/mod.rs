@@ -87,7 +87,8 @@ impl<N: NodeKind> WideBvh<N> {
         let built = build(&mesh, options)?;
         check_size(built.triangle_order.len(), built.nodes.len(), N::FORMAT)?;
         let root_bounds = built.nodes.first().map_or(Aabb::EMPTY, |n| n.bounds);
-        let (nodes, root) = collapse::collapse(&built).unwrap_or((Vec::new(), 0));
+        let (nodes, root) =
+            collapse::collapse(&built, options.wide_leaf_size).unwrap_or((Vec::new(), 0));
         Ok(Self {
             nodes,
             root,
@@ -385,8 +386,9 @@ mod tests {
     }
 
     /// Same answers as the binary tree it was collapsed from, per ray and batched (both stream
-    /// engines), for every leaf size, with and without the leaf-ordered corner copy (the brute-force comparisons
-    /// live in the integration tests' zoo).
+    /// engines), for every leaf size, with leaves merged by the collapse or not, with and
+    /// without the leaf-ordered corner copy (the brute-force comparisons live in the
+    /// integration tests' zoo).
     #[test]
     fn answers_equal_the_binary_tree() {
         answers_equal_the_binary_tree_for::<WideNode>();
@@ -401,9 +403,17 @@ mod tests {
     fn answers_equal_the_binary_tree_for<N: NodeKind>() {
         let mesh = Arc::new(bunny());
         let rays = random_rays(&mesh, 20_000, 5);
-        for (leaf, corners) in [(1, false), (4, false), (4, true), (16, false)] {
+        let cases = [
+            (1, 1, false),
+            (1, 16, false),
+            (4, 1, false),
+            (4, 8, true),
+            (16, 16, false),
+        ];
+        for (leaf, wide_leaf, corners) in cases {
             let options = BuildOptions::default()
                 .with_leaf_size(leaf)
+                .with_wide_leaf_size(wide_leaf)
                 .with_leaf_corners(corners);
             let wide = WideBvh::<N>::build(mesh.clone(), &options).unwrap();
             let binary: AabbTree = AabbTree::build(mesh.clone(), &options).unwrap();
@@ -416,7 +426,7 @@ mod tests {
                 let mut occluded = vec![false; rays.len()];
                 wide.occluded_batch_with(&rays, &mut occluded, &batch)
                     .unwrap();
-                let case = format!("leaf {leaf}, {interleave:?}");
+                let case = format!("leaf {leaf}, wide leaf {wide_leaf}, {interleave:?}");
                 for (i, ray) in rays.iter().enumerate() {
                     let expected = binary.cast_ray_with(ray, Kernel::Watertight);
                     assert_eq!(bits(wide.cast_ray(ray)), bits(expected), "{case} {ray:?}");

@@ -12,7 +12,7 @@ use std::path::PathBuf;
 use clap::builder::{PossibleValue, PossibleValuesParser, TypedValueParser};
 use clap::{Args, Parser, Subcommand, ValueEnum};
 use raybatch::bvh::build::MAX_LEAF_SIZE;
-use raybatch::{AccelKind, Interleave, Kernel};
+use raybatch::{AccelKind, BuildOptions, Interleave, Kernel};
 use raybatch_tools::scenes::RaySet;
 
 use crate::bench::SCENE_NAMES;
@@ -118,6 +118,11 @@ pub struct QueryArgs {
     /// Largest leaf size.
     #[arg(long, value_name = "N", default_value = DEFAULT_LEAF, value_parser = leaf_size)]
     pub leaf: u32,
+    /// The wide trees (bvh4, bvh4q, bvh8): the largest leaf their collapse may merge small
+    /// subtrees into where the surface area heuristic says it pays (1: the binary tree's
+    /// leaves, as before the fourteenth session).
+    #[arg(long, value_name = "N", default_value_t = BuildOptions::default().wide_leaf_size, value_parser = leaf_size)]
+    pub wide_leaf: u32,
     /// Answer the rays as one batch (same answers, usually faster) instead of one by one.
     #[arg(long)]
     pub batched: bool,

@@ -46,6 +46,7 @@ pub fn run(args: &QueryArgs) -> Result<(), CliError> {
     progress::step(format!("building {}", args.tree.name()));
     let options = BuildOptions::default()
         .with_leaf_size(args.leaf)
+        .with_wide_leaf_size(args.wide_leaf)
         .with_leaf_corners(args.leaf_corners);
     let (tree, build_ms) = time_ms(|| args.tree.build(mesh, &options));
     let tree = tree.map_err(|e| CliError::input(format!("{}: {e}", args.mesh.display())))?;
@@ -128,6 +129,10 @@ fn report(args: &QueryArgs, triangles: usize, answers: &Answers) -> JsonLine {
     let line = match args.max_chunk {
         Some(n) => line.int("max_chunk", n),
         None => line,
+    };
+    let line = match args.tree.is_wide() {
+        true => line.int("wide_leaf", args.wide_leaf as usize),
+        false => line,
     };
     match (args.passes, args.batch_size) {
         (None, None) => line,
