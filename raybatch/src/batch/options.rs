@@ -35,7 +35,7 @@ impl BatchOrdering {
 pub enum Interleave {
     /// The structure decides by its size: the 4-wide tree interleaves when its nodes, leaf
     /// order and mesh pass 16 MiB, where waiting on memory dominates, and for streams of
-    /// fewer than 2,048 rays (calls of a few thousand rays) once they pass 2 MiB, where few
+    /// fewer than 2,048 rays (calls of a few thousand rays) once they pass 8 MiB, where few
     /// rays share each node.
     #[default]
     Auto,

@@ -219,8 +219,15 @@ const INTERLEAVE_ABOVE_BYTES: usize = 16 << 20;
 /// bunny (3.9 MB) N = 4,096: 172 vs 205 (line-of-sight any hit 82 vs 93), 16,384: 176 vs 183,
 /// 65,536: 175 vs 150; fandisk (0.8 MB) 4,096: 162 vs 122; teapot (0.4 MB) 172 vs 114.
 const SHORT_STREAM_RAYS: usize = 2048;
-/// See [`SHORT_STREAM_RAYS`]: about one core's L2 cache.
-const SHORT_INTERLEAVE_ABOVE_BYTES: usize = 2 << 20;
+/// See [`SHORT_STREAM_RAYS`]. Raised from 2 MiB when the collapse began to merge small
+/// subtrees into larger leaves (`collapse`): the trees shrank (bunny 3.9 -> 2.3 MB with its
+/// mesh, city 4.7 -> 2.8) and each one-ray step of the side-by-side engine tests more
+/// triangles, so sharing nodes became the faster engine for them. Measured on an AMD EPYC (1
+/// MiB of L2 per core), one thread, 1M rays in calls of 4,096, every variant alternated in one
+/// process, best of 3-4, side by side vs nodes shared, ms: bunny closest hit 210.3 vs 179.8,
+/// line-of-sight any hit 91.1 vs 82.8; city 256.6 vs 204.0 and 262.5 vs 250.5; terrain (33 MB)
+/// 311.5 vs 804.8.
+const SHORT_INTERLEAVE_ABOVE_BYTES: usize = 8 << 20;
 
 /// [`Interleave::Auto`]'s choice for a tree whose walks read `working_set` bytes and a stream
 /// of `rays` rays: true to walk the rays side by side.
