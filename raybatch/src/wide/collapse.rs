@@ -15,6 +15,9 @@
 //! [`NODE_COST`] + the children's costs), and keeps the cheaper. A subtree's triangles are
 //! contiguous slots (the builder partitions them in place), so a merged leaf is one slot range:
 //! the triangles and their order stay the binary tree's, and binary leaves are never split.
+//! A wide node with free slots still opens a planned leaf ([`widest_children`]): the slots
+//! cost nothing once the node is read, and smaller leaves test fewer triangles (keeping planned
+//! leaves closed made `bvh8` per ray 1.04-1.10x slower).
 //!
 //! [`BuildOptions::wide_leaf_size`]: crate::BuildOptions::wide_leaf_size
 
