@@ -307,8 +307,8 @@ fn batched_and_threaded_output_equals_per_ray_output() {
     }
 }
 
-/// `--passes`, `--batch-size` and `--max-chunk` change the timing, never the output; the JSON
-/// line reports every pass and the chunk asked for.
+/// `--passes`, `--batch-size`, `--max-chunk` and `--wide-leaf` change the timing, never the
+/// output; the JSON line reports every pass, the chunk and the wide leaf size asked for.
 #[test]
 fn passes_and_batch_size_keep_the_output() {
     let dir = TempDir::new("passes");
@@ -336,6 +336,12 @@ fn passes_and_batch_size_keep_the_output() {
         let (bytes, line) = query_ok(&dir, &mesh, &rays_path, &extra);
         assert!(bytes == expected, "{extra:?}: output differs");
         assert_eq!(json_int(&line, "max_chunk"), Some(7), "{line}");
+        // The wide trees without merged leaves: another tree, the same answers.
+        let extra = [base.as_slice(), &["--wide-leaf", "1"]].concat();
+        let (bytes, line) = query_ok(&dir, &mesh, &rays_path, &extra);
+        assert!(bytes == expected, "{extra:?}: output differs");
+        let wide = raybatch::AccelKind::from_name(tree).is_some_and(|k| k.is_wide());
+        assert_eq!(json_int(&line, "wide_leaf"), wide.then_some(1), "{line}");
     }
 }
 
