@@ -35,7 +35,7 @@ use crate::geom::Aabb;
 /// fandisk 0.97 / 0.96 / 0.96-0.97 / 1.01 / 1.04, bunny 1.00 / 0.95 / 0.95-0.97 / 1.00 / 1.02,
 /// teapot 0.99 / 1.00 / 1.01 / 1.06 / 1.10. 4 gains where the tree outgrows the caches (the
 /// bunny) and costs little elsewhere; higher costs slow the smaller meshes.
-pub(crate) const NODE_COST: f32 = 4.0;
+const NODE_COST: f32 = 4.0;
 
 /// The wide nodes of `built` and the root's child word: a node index, or a leaf word when the
 /// whole tree is one leaf; leaves merged up to `wide_leaf_size` triangles (see the module
@@ -44,7 +44,9 @@ pub(crate) fn collapse<N: NodeKind>(
     built: &BuiltTree,
     wide_leaf_size: u32,
 ) -> Option<(Vec<N>, u32)> {
-    built.nodes.first()?;
+    if built.nodes.is_empty() {
+        return None;
+    }
     let leaves = plan_leaves(built, wide_leaf_size);
     if let Some((first, count)) = leaves.leaf(0) {
         return Some((Vec::new(), leaf_word::pack(first, count)));
@@ -167,42 +169,16 @@ fn widest_children(built: &BuiltTree, index: u32, width: usize) -> Vec<u32> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::BuildOptions;
     use crate::bvh::build::build;
-    use crate::test_support::TestRng;
-    use crate::{BuildOptions, Mesh};
-
-    /// A soup of `n` small random triangles in the unit cube.
-    fn soup(n: usize, seed: u64) -> Mesh {
-        let mut rng = TestRng::new(seed);
-        let mut vertices = Vec::new();
-        for _ in 0..n {
-            let base = glam::Vec3::new(
-                rng.range(0.0, 1.0),
-                rng.range(0.0, 1.0),
-                rng.range(0.0, 1.0),
-            );
-            for _ in 0..3 {
-                let offset = glam::Vec3::new(
-                    rng.range(0.0, 0.05),
-                    rng.range(0.0, 0.05),
-                    rng.range(0.0, 0.05),
-                );
-                vertices.push(base + offset);
-            }
-        }
-        let triangles = (0..n as u32)
-            .map(|t| [3 * t, 3 * t + 1, 3 * t + 2])
-            .collect();
-        Mesh::new(vertices, triangles).unwrap()
-    }
+    use crate::test_support::bunny;
 
     /// The planned leaves cover every slot exactly once, hold at most `wide_leaf_size`
     /// triangles unless they are binary leaves, and never lie inside another planned leaf;
     /// with `wide_leaf_size` 1 they are exactly the binary leaves.
     #[test]
     fn planned_leaves_partition_the_slots() {
-        let mesh = soup(3_000, 5);
-        let built = build(&mesh, &BuildOptions::default()).unwrap();
+        let built = build(&bunny(), &BuildOptions::default()).unwrap();
         for wide_leaf_size in [1, 4, 8, 16] {
             let plan = plan_leaves(&built, wide_leaf_size);
             // Walk from the root, stopping at planned leaves, as the collapse does.

@@ -130,9 +130,10 @@ fn report(args: &QueryArgs, triangles: usize, answers: &Answers) -> JsonLine {
         Some(n) => line.int("max_chunk", n),
         None => line,
     };
-    let line = match args.tree.is_wide() {
-        true => line.int("wide_leaf", args.wide_leaf as usize),
-        false => line,
+    let line = if args.tree.is_wide() {
+        line.int("wide_leaf", args.wide_leaf as usize)
+    } else {
+        line
     };
     match (args.passes, args.batch_size) {
         (None, None) => line,
