@@ -63,7 +63,9 @@ pub mod zbt;
 
 pub use accel::{Accel, Footprint, RayStream, StreamLayout};
 pub use batch::{BatchOptions, BatchOrdering, Interleave, PartitionKernel};
-pub use bvh::{AabbTree, BuildError, BuildOptions, Bvh, ChildOrdering, QuantizedAabbTree};
+pub use bvh::{
+    AabbTree, BuildError, BuildOptions, Bvh, ChildOrdering, LeafCopy, QuantizedAabbTree,
+};
 pub use catalog::{AccelKind, AnyAccel};
 pub use geom::{Aabb, Kernel, Ray, RayError};
 pub use glam;

@@ -20,6 +20,7 @@ use glam::{Vec3, Vec3A};
 use crate::geom::Aabb;
 use crate::mesh::Mesh;
 
+use super::leaves::LeafCopy;
 use super::ordering::{ChildOrdering, ordering_byte};
 
 /// Bins per axis for the SAH sweep.
@@ -43,10 +44,12 @@ pub struct BuildOptions {
     pub ordering: ChildOrdering,
     /// Build large subtrees on rayon's thread pool.
     pub parallel: bool,
-    /// Keep a copy of each triangle's corners in leaf order (36 more bytes per triangle), so
-    /// that a leaf's triangles are read from one contiguous block instead of through the
-    /// mesh's index array (two dependent loads per triangle, scattered over the mesh).
-    pub leaf_corners: bool,
+    /// What the tree copies of its leaves' triangles in leaf order beside the mesh
+    /// ([`LeafCopy::Auto`] by default: the vertex indices for [`crate::WideTree`] and
+    /// [`crate::WideTree8`], nothing for the others), so that reading a leaf's triangles takes
+    /// fewer dependent loads, scattered less over the mesh. The zero-byte trees and the
+    /// quantized-vertex tree copy nothing whatever the choice (a copy would undo their saving).
+    pub leaf_copy: LeafCopy,
     /// The wide trees (`WideTree`, `WideTree8`, `QuantizedWideTree`) only: the most triangles a
     /// leaf may hold when their collapse turns a small binary subtree into one leaf, which it
     /// does where the surface area heuristic with a wide node's cost says the leaf is cheaper
@@ -61,7 +64,7 @@ impl Default for BuildOptions {
             max_leaf_size: 4,
             ordering: ChildOrdering::Pns,
             parallel: true,
-            leaf_corners: false,
+            leaf_copy: LeafCopy::Auto,
             wide_leaf_size: MAX_LEAF_SIZE,
         }
     }
@@ -103,9 +106,9 @@ impl BuildOptions {
         self
     }
 
-    /// With [`BuildOptions::leaf_corners`].
-    pub fn with_leaf_corners(mut self, leaf_corners: bool) -> Self {
-        self.leaf_corners = leaf_corners;
+    /// With [`BuildOptions::leaf_copy`].
+    pub fn with_leaf_copy(mut self, leaf_copy: LeafCopy) -> Self {
+        self.leaf_copy = leaf_copy;
         self
     }
 }

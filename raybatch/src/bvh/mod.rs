@@ -35,6 +35,7 @@ use crate::geom::Aabb;
 
 pub use build::{BuildError, BuildOptions};
 pub use counted::Counted;
+pub use leaves::LeafCopy;
 pub use ordering::ChildOrdering;
 pub use quantized_vertices::QuantizedVertexTree;
 pub use tree::{AabbTree, QuantizedAabbTree};

@@ -30,8 +30,8 @@ pub struct QuantizedVertexTree<N: NodeFormat = FullNodes> {
 }
 
 impl<N: NodeFormat> QuantizedVertexTree<N> {
-    /// Builds the tree over `mesh` (decoded for the build only). `options.leaf_corners` is
-    /// ignored: a copy of the corners would undo the memory saving.
+    /// Builds the tree over `mesh` (decoded for the build only). `options.leaf_copy` is
+    /// ignored: a copy of the triangles would undo the memory saving.
     pub fn build(mesh: QuantizedMesh, options: &BuildOptions) -> Result<Self, BuildError> {
         let built = build(&mesh.dequantize(), options)?;
         Ok(Self {

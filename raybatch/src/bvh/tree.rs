@@ -10,7 +10,7 @@ use std::sync::Arc;
 use glam::Vec3;
 
 use super::build::{BuildError, BuildOptions, build};
-use super::leaves::LeafTriangles;
+use super::leaves::{LeafCopy, LeafTriangles};
 use super::nodes::{FullNodes, NodeFormat, QuantizedNodes};
 use super::{Bvh, Node};
 use crate::accel::Footprint;
@@ -38,7 +38,11 @@ impl<N: NodeFormat> AabbTree<N> {
         let nodes = N::pack(&built)?;
         Ok(Self {
             nodes,
-            triangles: LeafTriangles::new(mesh, built.triangle_order, options),
+            triangles: LeafTriangles::new(
+                mesh,
+                built.triangle_order,
+                options.leaf_copy.or(LeafCopy::Nothing),
+            ),
             depth: built.depth,
             options: *options,
         })

@@ -18,6 +18,7 @@ use super::node4q::QuantizedWideNode;
 use super::node8::WideNode8;
 use super::stack::Stack;
 use super::stream::StreamPlanes;
+use crate::bvh::LeafCopy;
 use crate::bvh::ordering::octant_diagonal;
 use crate::geom::Aabb;
 
@@ -43,6 +44,8 @@ pub(crate) mod layout {
         const NAME: &'static str;
         /// The layout's name in error messages.
         const FORMAT: &'static str;
+        /// What the tree copies of its leaves by default ([`crate::LeafCopy::Auto`]).
+        const LEAF_COPY: LeafCopy;
 
         /// The node of `children` (at most `WIDTH` boxes and child words, in slots `0..`),
         /// with its per-octant child orders.

@@ -93,7 +93,11 @@ impl<N: NodeKind> WideBvh<N> {
             nodes,
             root,
             root_bounds,
-            triangles: LeafTriangles::new(mesh, built.triangle_order, options),
+            triangles: LeafTriangles::new(
+                mesh,
+                built.triangle_order,
+                options.leaf_copy.or(N::LEAF_COPY),
+            ),
         })
     }
 
@@ -276,7 +280,7 @@ impl<N: NodeKind> Footprint for WideBvh<N> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::bvh::AabbTree;
+    use crate::bvh::{AabbTree, LeafCopy};
     use crate::geom::Watertight;
     use crate::query::{BatchQueries, RayQueries};
     use crate::test_support::{bunny, random_rays};
@@ -411,17 +415,17 @@ mod tests {
         let mesh = Arc::new(bunny());
         let rays = random_rays(&mesh, 20_000, 5);
         let cases = [
-            (1, 1, false),
-            (1, 16, false),
-            (4, 1, false),
-            (4, 8, true),
-            (16, 16, false),
+            (1, 1, LeafCopy::Nothing),
+            (1, 16, LeafCopy::Auto),
+            (4, 1, LeafCopy::Indices),
+            (4, 8, LeafCopy::Corners),
+            (16, 16, LeafCopy::Auto),
         ];
-        for (leaf, wide_leaf, corners) in cases {
+        for (leaf, wide_leaf, copy) in cases {
             let options = BuildOptions::default()
                 .with_leaf_size(leaf)
                 .with_wide_leaf_size(wide_leaf)
-                .with_leaf_corners(corners);
+                .with_leaf_copy(copy);
             let wide = WideBvh::<N>::build(mesh.clone(), &options).unwrap();
             let binary: AabbTree = AabbTree::build(mesh.clone(), &options).unwrap();
             for interleave in [Interleave::Always, Interleave::Never] {
@@ -433,7 +437,7 @@ mod tests {
                 let mut occluded = vec![false; rays.len()];
                 wide.occluded_batch_with(&rays, &mut occluded, &batch)
                     .unwrap();
-                let case = format!("leaf {leaf}, wide leaf {wide_leaf}, {interleave:?}");
+                let case = format!("leaf {leaf}, wide leaf {wide_leaf}, {copy:?}, {interleave:?}");
                 for (i, ray) in rays.iter().enumerate() {
                     let expected = binary.cast_ray_with(ray, Kernel::Watertight);
                     assert_eq!(bits(wide.cast_ray(ray)), bits(expected), "{case} {ray:?}");

@@ -29,6 +29,7 @@ use super::kind::layout::Layout;
 use super::kind::octant_orders;
 use super::stack::Stack;
 use super::stream::StreamPlanes;
+use crate::bvh::LeafCopy;
 use crate::geom::aabb::EXIT_SCALE;
 use crate::geom::{Aabb, PreparedRay};
 use crate::prefetch::prefetch;
@@ -235,6 +236,7 @@ impl Layout for WideNode {
     const WIDTH: usize = WIDTH;
     const NAME: &'static str = "bvh4";
     const FORMAT: &'static str = "4-wide nodes (128 B)";
+    const LEAF_COPY: LeafCopy = LeafCopy::Indices;
 
     fn from_children(children: &[(Aabb, u32)]) -> Self {
         let mut node = WideNode::empty();

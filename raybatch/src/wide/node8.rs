@@ -19,6 +19,7 @@ use super::kind::octant_orders;
 use super::node::{Planes, WideRay};
 use super::stack::Stack;
 use super::stream::StreamPlanes;
+use crate::bvh::LeafCopy;
 use crate::geom::Aabb;
 use crate::prefetch::prefetch;
 
@@ -128,6 +129,7 @@ impl Layout for WideNode8 {
     const WIDTH: usize = WIDTH;
     const NAME: &'static str = "bvh8";
     const FORMAT: &'static str = "8-wide nodes (256 B)";
+    const LEAF_COPY: LeafCopy = LeafCopy::Indices;
 
     fn from_children(children: &[(Aabb, u32)]) -> Self {
         let mut node = WideNode8::empty();

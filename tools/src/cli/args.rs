@@ -12,7 +12,7 @@ use std::path::PathBuf;
 use clap::builder::{PossibleValue, PossibleValuesParser, TypedValueParser};
 use clap::{Args, Parser, Subcommand, ValueEnum};
 use raybatch::bvh::build::MAX_LEAF_SIZE;
-use raybatch::{AccelKind, BuildOptions, Interleave, Kernel};
+use raybatch::{AccelKind, BuildOptions, Interleave, Kernel, LeafCopy};
 use raybatch_tools::scenes::RaySet;
 
 use crate::bench::SCENE_NAMES;
@@ -144,10 +144,12 @@ pub struct QueryArgs {
     /// larger chunks share nodes among more rays and take about 90 bytes a ray.
     #[arg(long, value_name = "N", value_parser = positive)]
     pub max_chunk: Option<usize>,
-    /// Keep a copy of each triangle's corners in leaf order (36 more bytes per triangle, fewer
-    /// dependent loads; the same answers).
-    #[arg(long)]
-    pub leaf_corners: bool,
+    /// What the tree copies of its leaves' triangles in leaf order: nothing, the vertex
+    /// indices (12 bytes per triangle) or the corners (36 bytes per triangle); auto: the
+    /// indices for bvh4 and bvh8, nothing for the others. Fewer dependent loads per leaf;
+    /// the same answers.
+    #[arg(long, value_name = "COPY", default_value = LeafCopy::default().name(), value_parser = choice(&LeafCopy::ALL, LeafCopy::name))]
+    pub leaf_copy: LeafCopy,
     /// With --batched, whether the 4-wide tree walks rays side by side, hiding cache misses
     /// (always), shares each node among the rays that reach it (never), or picks by its size
     /// (auto).

@@ -47,7 +47,7 @@ pub fn run(args: &QueryArgs) -> Result<(), CliError> {
     let options = BuildOptions::default()
         .with_leaf_size(args.leaf)
         .with_wide_leaf_size(args.wide_leaf)
-        .with_leaf_corners(args.leaf_corners);
+        .with_leaf_copy(args.leaf_copy);
     let (tree, build_ms) = time_ms(|| args.tree.build(mesh, &options));
     let tree = tree.map_err(|e| CliError::input(format!("{}: {e}", args.mesh.display())))?;
     progress::step(format!("answering {} rays", rays.len()));
@@ -135,6 +135,7 @@ fn report(args: &QueryArgs, triangles: usize, answers: &Answers) -> JsonLine {
     } else {
         line
     };
+    let line = line.str("leaf_copy", args.leaf_copy.name());
     match (args.passes, args.batch_size) {
         (None, None) => line,
         _ => {
