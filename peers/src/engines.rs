@@ -154,10 +154,11 @@ pub fn raybatch(
         })
     });
     let structure = format!(
-        "{}, leaf <= {} (wide trees: <= {}), {:?} ordering, {:.1} B/tri",
+        "{}, leaf <= {} (wide trees: <= {}), leaf copy {}, {:?} ordering, {:.1} B/tri",
         kind.summary(),
         options.max_leaf_size,
         options.wide_leaf_size,
+        options.leaf_copy.name(),
         options.ordering,
         tree.bytes_per_triangle()
     );
