@@ -165,30 +165,17 @@ impl LeafTriangles {
                 .iter()
                 .for_each(|&i| prefetch(&vertices[i as usize]))
         };
-        match &self.copied {
-            Copied::Corners(corners) => {
-                corners[first..end].iter().for_each(prefetch);
-                return true;
-            }
-            Copied::Indices(indices) if stage == 0 => {
-                indices[first..end].iter().for_each(prefetch);
-                return false;
-            }
-            Copied::Indices(indices) => {
-                indices[first..end].iter().for_each(prefetch_corners);
-                return true;
-            }
-            Copied::Nothing => {}
+        let ids = &self.order[first..end];
+        match (&self.copied, stage) {
+            (Copied::Corners(corners), _) => corners[first..end].iter().for_each(prefetch),
+            (Copied::Indices(indices), 0) => indices[first..end].iter().for_each(prefetch),
+            (Copied::Indices(indices), _) => indices[first..end].iter().for_each(prefetch_corners),
+            (Copied::Nothing, 0) => ids.iter().for_each(|&id| prefetch(&triangles[id as usize])),
+            (Copied::Nothing, _) => ids
+                .iter()
+                .for_each(|&id| prefetch_corners(&triangles[id as usize])),
         }
-        for &id in &self.order[first..end] {
-            let indices = &triangles[id as usize];
-            if stage == 0 {
-                prefetch(indices);
-            } else {
-                prefetch_corners(indices);
-            }
-        }
-        stage > 0
+        stage > 0 || matches!(self.copied, Copied::Corners(_))
     }
 
     /// Bytes added to the mesh: the slot order and the copy.
