@@ -253,6 +253,20 @@ impl<'a> RayStream<'a> {
         }
     }
 
+    /// Prefetches ray `i`'s record and id (records layout; nothing in the lanes layout, whose
+    /// walks take the rays in order): for walks that take the rays out of order
+    /// (`crate::batch::origin_order`), where each ray's record would be a cache miss.
+    #[inline(always)]
+    pub(crate) fn prefetch_ray(&self, i: usize) {
+        let lane = self.lane(i);
+        if let Storage::Records(records) = &self.storage {
+            let ray = &records.rays[lane];
+            crate::prefetch::prefetch(ray);
+            crate::prefetch::prefetch(&ray.pad);
+            crate::prefetch::prefetch(&records.ids[lane]);
+        }
+    }
+
     /// The origin of ray `i`.
     #[inline(always)]
     pub(crate) fn origin(&self, i: usize) -> glam::Vec3 {
