@@ -24,6 +24,7 @@ use glam::{Vec3, Vec3A};
 use crate::geom::Aabb;
 use crate::geom::aabb::SlabRay;
 use crate::mesh::Mesh;
+use crate::prefetch::prefetch;
 
 use super::cull::{coarse_cull, coarse_hit, coarse_steps, cull_box};
 use super::mailbox::SHARED;
@@ -193,6 +194,12 @@ impl Cells {
         tmax: f32,
     ) -> Option<&[u32]> {
         coarse_hit(planes, self.steps, cell, self.cull[rank], slab, tmax).then(|| self.refs(rank))
+    }
+
+    /// Prefetches the cull box of the stored cell of rank `rank`.
+    #[inline(always)]
+    pub(crate) fn prefetch_cull(&self, rank: usize) {
+        prefetch(&self.cull[rank]);
     }
 
     /// The references of the stored cell of rank `rank`.

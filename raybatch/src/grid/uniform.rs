@@ -8,6 +8,7 @@ use crate::geom::aabb::SlabRay;
 use crate::geom::{Aabb, PreparedRay, TriangleTest};
 use crate::hit::Visitor;
 use crate::mesh::Mesh;
+use crate::prefetch::prefetch;
 use crate::traverse::single::test_triangles;
 
 use super::cells::{Cells, TriangleBox, blocks, grid_planes, triangle_boxes};
@@ -16,6 +17,21 @@ use super::scratch::GridScratch;
 use super::sizing::{GridOptions, cap, cell_shape, resolution};
 use super::walk::{GridPlanes, bounds, walk};
 use crate::batch::origin_order;
+
+/// The one-ray walk tests a stored cell this many stored cells after meeting it, and
+/// prefetches its cull box when it meets it: a short ray on the 1M-triangle terrain meets
+/// about four stored cells, each cull box a likely cache miss (the walk's largest stall,
+/// `perf`), and taken one after the other they could not overlap. Measured (`grid_tuning --
+/// race terrain 200000`, two paired runs, the grid per ray against the AABB tree per ray):
+/// short rays 0.87 -> 0.93-0.94 with 4, 0.88-0.92 with 8.
+///
+/// Exact: the walk runs ahead with the range end of the last test, never shorter than the
+/// current one, so it meets every cell the plain walk would (and a few more); each cell is
+/// then tested in walk order with the current range end, as the plain walk would test it. A
+/// cell the plain walk would not reach is entered beyond that range end, and so is its cull
+/// box, which lies inside it: the cull test lets nothing through (a ray that is done has
+/// range end `-inf`, which no box passes).
+const LOOKAHEAD: usize = 4;
 
 /// A triangle is stored at most this many times on average; a finer grid is coarsened until
 /// it fits (large triangles in a fine grid would otherwise fill memory).
@@ -127,11 +143,27 @@ pub(crate) fn test_cell<K: TriangleTest, V: Visitor>(
     tmax: &mut f32,
     visitor: &mut V,
 ) -> bool {
+    prefetch_triangles(mesh, refs);
     let triangles = refs.iter().filter(|&&r| mailbox.first_visit(r)).map(|&r| {
         let triangle = r & !SHARED;
         (triangle, mesh.triangle(triangle))
     });
     test_triangles::<K, V>(ray, id, triangles, tmax, visitor)
+}
+
+/// Prefetches the vertex indices of the triangles of `refs`, then their corners: a cell's
+/// triangles lie anywhere in a large mesh, and tested one after the other each is a chain of
+/// two misses (indices, then corners) that the next one's cannot overlap.
+#[inline(always)]
+fn prefetch_triangles(mesh: &Mesh, refs: &[u32]) {
+    let (triangles, vertices) = (mesh.triangles(), mesh.vertices());
+    let triangle = |r: u32| &triangles[(r & !SHARED) as usize];
+    refs.iter().for_each(|&r| prefetch(triangle(r)));
+    refs.iter().for_each(|&r| {
+        triangle(r)
+            .iter()
+            .for_each(|&v| prefetch(&vertices[v as usize]))
+    });
 }
 
 impl Accel for UniformGrid {
@@ -152,16 +184,35 @@ impl Accel for UniformGrid {
         }
         mailbox.next_ray();
         let slab = SlabRay::new(ray);
-        walk(&self.planes, ray, &mut tmax, |cell, tmax| {
+        // A stored cell is tested LOOKAHEAD stored cells after the walk met it (see
+        // `LOOKAHEAD`), with the range end of that moment.
+        let test =
+            |(rank, slabs): (usize, [u32; 3]), tmax: &mut f32, mailbox: &mut _, visitor: &mut V| {
+                let cell = (&self.planes, slabs);
+                if let Some(refs) = self.cells.refs_to_test(rank, cell, &slab, *tmax) {
+                    test_cell::<K, V>(&self.mesh, refs, ray, id, mailbox, tmax, visitor);
+                }
+            };
+        let mut queue = [(0usize, [0u32; 3]); LOOKAHEAD];
+        let (mut head, mut len) = (0, 0);
+        let mut walk_end = tmax;
+        walk(&self.planes, ray, &mut walk_end, |cell, walk_end| {
             visitor.enter_node(id);
             let Some(rank) = self.cells.rank_of(cell.index as usize) else {
                 return;
             };
-            let grid_cell = (&self.planes, cell.slabs);
-            if let Some(refs) = self.cells.refs_to_test(rank, grid_cell, &slab, *tmax) {
-                test_cell::<K, V>(&self.mesh, refs, ray, id, mailbox, tmax, visitor);
+            self.cells.prefetch_cull(rank);
+            if len == LOOKAHEAD {
+                test(queue[head], &mut tmax, mailbox, visitor);
+                (head, len) = ((head + 1) % LOOKAHEAD, len - 1);
+                *walk_end = tmax;
             }
+            queue[(head + len) % LOOKAHEAD] = (rank, cell.slabs);
+            len += 1;
         });
+        for k in 0..len {
+            test(queue[(head + k) % LOOKAHEAD], &mut tmax, mailbox, visitor);
+        }
         tmax
     }
 
