@@ -261,6 +261,7 @@ impl<'a> RayStream<'a> {
         let lane = self.lane(i);
         if let Storage::Records(records) = &self.storage {
             let ray = &records.rays[lane];
+            // Both ends of the 64-byte record, which need not start on a cache line.
             crate::prefetch::prefetch(ray);
             crate::prefetch::prefetch(&ray.pad);
             crate::prefetch::prefetch(&records.ids[lane]);

@@ -159,21 +159,18 @@ impl LeafTriangles {
     #[inline(always)]
     pub(crate) fn prefetch(&self, slots: std::ops::Range<u32>, stage: u8) -> bool {
         let (first, end) = (slots.start as usize, slots.end as usize);
-        let (triangles, vertices) = (self.mesh.triangles(), self.mesh.vertices());
-        let prefetch_corners = |indices: &[u32; 3]| {
-            indices
-                .iter()
-                .for_each(|&i| prefetch(&vertices[i as usize]))
-        };
+        let mesh = &self.mesh;
         let ids = &self.order[first..end];
         match (&self.copied, stage) {
             (Copied::Corners(corners), _) => corners[first..end].iter().for_each(prefetch),
             (Copied::Indices(indices), 0) => indices[first..end].iter().for_each(prefetch),
-            (Copied::Indices(indices), _) => indices[first..end].iter().for_each(prefetch_corners),
-            (Copied::Nothing, 0) => ids.iter().for_each(|&id| prefetch(&triangles[id as usize])),
+            (Copied::Indices(indices), _) => indices[first..end]
+                .iter()
+                .for_each(|i| mesh.prefetch_corners(i)),
+            (Copied::Nothing, 0) => ids.iter().for_each(|&id| mesh.prefetch_indices(id)),
             (Copied::Nothing, _) => ids
                 .iter()
-                .for_each(|&id| prefetch_corners(&triangles[id as usize])),
+                .for_each(|&id| mesh.prefetch_corners(&mesh.triangles()[id as usize])),
         }
         stage > 0 || matches!(self.copied, Copied::Corners(_))
     }

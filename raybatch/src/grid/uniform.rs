@@ -8,7 +8,6 @@ use crate::geom::aabb::SlabRay;
 use crate::geom::{Aabb, PreparedRay, TriangleTest};
 use crate::hit::Visitor;
 use crate::mesh::Mesh;
-use crate::prefetch::prefetch;
 use crate::traverse::single::test_triangles;
 
 use super::cells::{Cells, TriangleBox, blocks, grid_planes, triangle_boxes};
@@ -156,14 +155,9 @@ pub(crate) fn test_cell<K: TriangleTest, V: Visitor>(
 /// two misses (indices, then corners) that the next one's cannot overlap.
 #[inline(always)]
 fn prefetch_triangles(mesh: &Mesh, refs: &[u32]) {
-    let (triangles, vertices) = (mesh.triangles(), mesh.vertices());
-    let triangle = |r: u32| &triangles[(r & !SHARED) as usize];
-    refs.iter().for_each(|&r| prefetch(triangle(r)));
-    refs.iter().for_each(|&r| {
-        triangle(r)
-            .iter()
-            .for_each(|&v| prefetch(&vertices[v as usize]))
-    });
+    let ids = refs.iter().map(|&r| r & !SHARED);
+    ids.clone().for_each(|id| mesh.prefetch_indices(id));
+    ids.for_each(|id| mesh.prefetch_corners(&mesh.triangles()[id as usize]));
 }
 
 impl Accel for UniformGrid {
@@ -195,17 +189,15 @@ impl Accel for UniformGrid {
             };
         let mut queue = [(0usize, [0u32; 3]); LOOKAHEAD];
         let (mut head, mut len) = (0, 0);
-        let mut walk_end = tmax;
-        walk(&self.planes, ray, &mut walk_end, |cell, walk_end| {
+        walk(&self.planes, ray, &mut tmax, |cell, tmax| {
             visitor.enter_node(id);
             let Some(rank) = self.cells.rank_of(cell.index as usize) else {
                 return;
             };
             self.cells.prefetch_cull(rank);
             if len == LOOKAHEAD {
-                test(queue[head], &mut tmax, mailbox, visitor);
+                test(queue[head], tmax, mailbox, visitor);
                 (head, len) = ((head + 1) % LOOKAHEAD, len - 1);
-                *walk_end = tmax;
             }
             queue[(head + len) % LOOKAHEAD] = (rank, cell.slabs);
             len += 1;

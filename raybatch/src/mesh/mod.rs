@@ -173,6 +173,22 @@ impl Mesh {
         &self.triangles
     }
 
+    /// Prefetches the vertex indices of triangle `id`: the first link of the chain of
+    /// dependent reads (id -> indices -> corners) behind a triangle test.
+    #[inline(always)]
+    pub(crate) fn prefetch_indices(&self, id: u32) {
+        crate::prefetch::prefetch(&self.triangles[id as usize]);
+    }
+
+    /// Prefetches the corners at vertex indices `indices` (the chain's second link; reads
+    /// the indices, so prefetch them first).
+    #[inline(always)]
+    pub(crate) fn prefetch_corners(&self, indices: &[u32; 3]) {
+        for &i in indices {
+            crate::prefetch::prefetch(&self.vertices[i as usize]);
+        }
+    }
+
     /// Number of triangles (degenerate ones included).
     pub fn triangle_count(&self) -> usize {
         self.triangles.len()
