@@ -1,23 +1,35 @@
 //! Collapsing the binary SAH tree into a wide one (4 or 8 children per node).
 //!
-//! Each wide node starts from a binary node's two children and repeatedly opens the internal
-//! child with the largest surface area (the one a random ray is most likely to enter), putting
-//! its two children in its place, until it has its width in children or only leaves (Wald et al. 2008,
-//! "Getting rid of packets"). Nodes are numbered in depth-first preorder, so a subtree is
-//! contiguous.
+//! The collapse is the surface area heuristic's optimum over the binary tree (Ylitie, Karras
+//! and Laine 2017, "Efficient incoherent ray traversal on GPUs through compressed wide
+//! BVHs"): bottom up, [`Plan`] prices every binary subtree as one leaf, as one wide node, and
+//! as a forest of up to `W` wide-tree children; top down, each wide node takes the cheapest
+//! forest of its binary node's subtree. A ray enters a box with odds proportional to its
+//! surface area, so a leaf costs `area x triangles` and a wide node `area x NODE_COST` (a
+//! dependent load of up to four cache lines, a box test of every child, a push). Nodes are
+//! numbered in depth-first preorder, so a subtree is contiguous.
 //!
-//! Leaves: the binary build prices a traversal step like one triangle test, which suits a
-//! binary walk, and stops at a few triangles per leaf. A wide walk pays several triangle tests
-//! for each node visit (a dependent load of up to four cache lines, a box test of every child,
-//! a push), so before collapsing, [`plan_leaves`] prices every binary subtree of at most
-//! [`BuildOptions::wide_leaf_size`] triangles both ways with the surface area heuristic, bottom
-//! up: as one leaf (area x triangles) or as a node over its children's best (area x
-//! [`NODE_COST`] + the children's costs), and keeps the cheaper. A subtree's triangles are
-//! contiguous slots (the builder partitions them in place), so a merged leaf is one slot range:
-//! the triangles and their order stay the binary tree's, and binary leaves are never split.
-//! A wide node with free slots still opens a planned leaf ([`widest_children`]): the slots
-//! cost nothing once the node is read, and smaller leaves test fewer triangles (keeping planned
-//! leaves closed made `bvh8` per ray 1.04-1.10x slower).
+//! Leaves: a binary leaf is always a leaf; a larger subtree of at most
+//! [`BuildOptions::wide_leaf_size`] triangles may become one (the binary build prices a step
+//! like one triangle test, which suits a binary walk, not a wide one). A subtree's triangles
+//! are contiguous slots (the builder partitions them in place), so a merged leaf is one slot
+//! range: the triangles and their order stay the binary tree's, and answers those of every
+//! other structure. A wide node with free slots opens a merged leaf whenever that is cheaper,
+//! which it is as soon as the halves' boxes are smaller than the whole.
+//!
+//! The greedy collapse it replaced (each node opening its largest child until full, Wald et al.
+//! 2008) filled every node; the optimum leaves slots free where a leaf or a subtree is cheaper
+//! whole, so its trees have more, smaller nodes and leaves: 0.1-0.2 more visits per
+//! incoherent ray and 12-20% more memory (`bvh8` fandisk 30.1 -> 33.8 B/tri, `bvh4` 27.6 ->
+//! 31.7, `bvh4q` 9.8 -> 11.9), but fewer triangle tests. Measured against it (one thread,
+//! 100k incoherent rays, callgrind instructions of the queries alone; then time, both trees in
+//! one process, 300k rays, best of 21 alternated passes; fandisk / teapot / bunny): `bvh8` per
+//! ray -5.8% / -6.8% / -2.7% instructions, 0.96-1.07 / 0.91-0.93 / 0.91-0.95 the time;
+//! `bvh4` in calls of 4,096 rays -11% / -10% / -10% instructions, 0.90-0.92 / 0.91-0.92 /
+//! 0.94-1.15 the time; `bvh4` batched -0.7% / -1.1% / -9.0% instructions, 0.96-1.02 /
+//! 0.99-1.05 / 0.95-1.01 the time; L1 data misses equal or fewer in every case. (A leaf
+//! overhead in the cost, or a node cost of 3 or 6, did no better: 6 gives the greedy
+//! collapse's memory and half its instruction gain.)
 //!
 //! [`BuildOptions::wide_leaf_size`]: crate::BuildOptions::wide_leaf_size
 
@@ -26,16 +38,20 @@ use crate::bvh::build::BuiltTree;
 use crate::bvh::nodes::leaf_word;
 use crate::geom::Aabb;
 
-/// What the leaf plan charges for a binary node, in triangle tests: the cost of a step of the
-/// wide walk against one more triangle in a leaf. Measured (one thread, 1M rays, every
-/// variant built once and alternated in one process, best of 4, answers checked equal; time
-/// against the unmerged tree, leaves of at most 16): cost 2 / 3 / 4 / 6 / 8, `bvh4` batched
-/// closest hit on incoherent rays, fandisk 0.99 / 0.99 / 0.98-0.99 / 1.03 / 1.02, bunny 0.94 /
-/// 0.90 / 0.89 / 0.86 / 0.85, teapot 1.00 / 1.03 / 1.02-1.03 / 1.04 / 1.05; `bvh8` per ray,
-/// fandisk 0.97 / 0.96 / 0.96-0.97 / 1.01 / 1.04, bunny 1.00 / 0.95 / 0.95-0.97 / 1.00 / 1.02,
-/// teapot 0.99 / 1.00 / 1.01 / 1.06 / 1.10. 4 gains where the tree outgrows the caches (the
-/// bunny) and costs little elsewhere; higher costs slow the smaller meshes.
-const NODE_COST: f32 = 4.0;
+/// What the plan charges for a wide node, in triangle tests: the cost of a step of the wide
+/// walk against one more triangle in a leaf. Measured with the greedy collapse (one thread,
+/// 1M rays, every variant built once and alternated in one process, best of 4, answers checked
+/// equal; time against the unmerged tree, leaves of at most 16): cost 2 / 3 / 4 / 6 / 8, `bvh4`
+/// batched closest hit on incoherent rays, fandisk 0.99 / 0.99 / 0.98-0.99 / 1.03 / 1.02,
+/// bunny 0.94 / 0.90 / 0.89 / 0.86 / 0.85, teapot 1.00 / 1.03 / 1.02-1.03 / 1.04 / 1.05;
+/// `bvh8` per ray, fandisk 0.97 / 0.96 / 0.96-0.97 / 1.01 / 1.04, bunny 1.00 / 0.95 /
+/// 0.95-0.97 / 1.00 / 1.02, teapot 0.99 / 1.00 / 1.01 / 1.06 / 1.10. 4 gains where the tree
+/// outgrows the caches (the bunny) and costs little elsewhere; higher costs slow the smaller
+/// meshes.
+const NODE_COST: f64 = 4.0;
+
+/// Widest node the plan handles.
+const MAX_WIDTH: usize = 8;
 
 /// The wide nodes of `built` and the root's child word: a node index, or a leaf word when the
 /// whole tree is one leaf; leaves merged up to `wide_leaf_size` triangles (see the module
@@ -47,123 +63,155 @@ pub(crate) fn collapse<N: NodeKind>(
     if built.nodes.is_empty() {
         return None;
     }
-    let leaves = plan_leaves(built, wide_leaf_size);
-    if let Some((first, count)) = leaves.leaf(0) {
+    let plan = Plan::new(built, wide_leaf_size, N::WIDTH);
+    if plan.as_leaf[0] {
+        let (first, count) = plan.ranges[0];
         return Some((Vec::new(), leaf_word::pack(first, count)));
     }
     let mut nodes = Vec::with_capacity(built.nodes.len() / (N::WIDTH - 1) + 1);
-    let root_word = collapse_node(built, &leaves, 0, &mut nodes);
+    let root_word = collapse_node(built, &plan, 0, &mut nodes);
     Some((nodes, root_word))
 }
 
-/// Which binary nodes the wide tree keeps as leaves (see [`plan_leaves`]).
-struct LeafPlan {
+/// How a binary subtree is covered by at most `i` children of a wide node.
+#[derive(Clone, Copy, Debug, Default)]
+enum Cover {
+    /// By one child: the subtree's root itself (a leaf or a wide node, see `Plan::as_leaf`).
+    #[default]
+    Whole,
+    /// By up to `left` children from the left child's subtree and `right` from the right's.
+    Split { left: u8, right: u8 },
+}
+
+/// The collapse's choices for every binary node (see the module docs).
+struct Plan {
+    /// The width of the wide nodes.
+    width: usize,
     /// Per binary node, its slot range `(first, count)`.
     ranges: Vec<(u32, u32)>,
-    /// Per binary node: a binary leaf, a subtree priced cheaper as one leaf, or a node inside
-    /// such a subtree.
-    in_leaf: Vec<bool>,
+    /// Per binary node, true if as one child of a wide node it is a leaf (else a wide node).
+    as_leaf: Vec<bool>,
+    /// Per binary node, its best cover by at most `i` children, at `covers[node][i - 1]`.
+    covers: Vec<[Cover; MAX_WIDTH]>,
+    /// Per binary internal node, how many of its wide node's children come from its left half.
+    node_split: Vec<u8>,
 }
 
-impl LeafPlan {
-    /// The slot range of binary node `index` if the wide tree may only hold it as a leaf.
-    fn leaf(&self, index: usize) -> Option<(u32, u32)> {
-        self.in_leaf[index].then_some(self.ranges[index])
+impl Plan {
+    /// Prices every binary subtree bottom up and keeps the cheapest choices.
+    fn new(built: &BuiltTree, wide_leaf_size: u32, width: usize) -> Self {
+        assert!((2..=MAX_WIDTH).contains(&width));
+        let count = built.nodes.len();
+        let mut plan = Plan {
+            width,
+            ranges: vec![(0, 0); count],
+            as_leaf: vec![false; count],
+            covers: vec![[Cover::Whole; MAX_WIDTH]; count],
+            node_split: vec![0; count],
+        };
+        // Per binary node, the cost of its best cover by at most `i` children, at `[i - 1]`.
+        let mut costs = vec![[0.0f64; MAX_WIDTH]; count];
+        // Children come after their parent (pairs in depth-first order), so a reverse sweep
+        // sees both children of a node before the node.
+        for index in (0..count).rev() {
+            let node = &built.nodes[index];
+            let area = f64::from(node.bounds.half_area());
+            if node.first_child == 0 {
+                plan.ranges[index] = (node.first, node.count);
+                plan.as_leaf[index] = true;
+                costs[index] = [area * f64::from(node.count); MAX_WIDTH];
+                continue;
+            }
+            let (left, right) = (node.first_child as usize, node.first_child as usize + 1);
+            debug_assert!(left > index, "children follow their parent");
+            let ((first, left_count), (right_first, right_count)) =
+                (plan.ranges[left], plan.ranges[right]);
+            debug_assert_eq!(first + left_count, right_first, "slots are contiguous");
+            plan.ranges[index] = (first, left_count + right_count);
+            // The best split of `i` children between the two halves, for `i` in 2..=width.
+            let (left_costs, right_costs) = (costs[left], costs[right]);
+            let split = |i: usize| {
+                (1..i)
+                    .map(|k| (left_costs[k - 1] + right_costs[i - k - 1], k))
+                    .min_by(|a, b| a.0.total_cmp(&b.0))
+                    .expect("i >= 2")
+            };
+            let triangles = left_count + right_count;
+            let (children_cost, k) = split(width);
+            plan.node_split[index] = k as u8;
+            let as_node = area * NODE_COST + children_cost;
+            let as_leaf = area * f64::from(triangles);
+            plan.as_leaf[index] = triangles <= wide_leaf_size && as_leaf <= as_node;
+            let mut best = if plan.as_leaf[index] {
+                as_leaf
+            } else {
+                as_node
+            };
+            costs[index][0] = best;
+            for i in 2..=width {
+                let (cost, k) = split(i);
+                if cost < best {
+                    best = cost;
+                    let (left, right) = (k as u8, (i - k) as u8);
+                    plan.covers[index][i - 1] = Cover::Split { left, right };
+                } else {
+                    plan.covers[index][i - 1] = plan.covers[index][i - 2];
+                }
+                costs[index][i - 1] = best;
+            }
+        }
+        plan
     }
-}
 
-/// Prices every binary subtree as one leaf and as a node over its children's best, bottom up
-/// (see the module docs), and marks the subtrees of at most `wide_leaf_size` triangles whose
-/// leaf is cheaper.
-fn plan_leaves(built: &BuiltTree, wide_leaf_size: u32) -> LeafPlan {
-    let count = built.nodes.len();
-    let mut ranges = vec![(0u32, 0u32); count];
-    let mut in_leaf = vec![false; count];
-    // The cheaper of each node's two prices.
-    let mut costs = vec![0.0f32; count];
-    // Children come after their parent (pairs in depth-first order), so a reverse sweep sees
-    // both children of a node before the node.
-    for index in (0..count).rev() {
-        let node = &built.nodes[index];
-        let area = node.bounds.half_area();
-        if node.first_child == 0 {
-            ranges[index] = (node.first, node.count);
-            costs[index] = area * node.count as f32;
-            in_leaf[index] = true;
-            continue;
-        }
-        let (left, right) = (node.first_child as usize, node.first_child as usize + 1);
-        debug_assert!(left > index, "children follow their parent");
-        let ((first, left_count), (right_first, right_count)) = (ranges[left], ranges[right]);
-        debug_assert_eq!(
-            first + left_count,
-            right_first,
-            "a subtree's slots are contiguous"
-        );
-        ranges[index] = (first, left_count + right_count);
-        let as_node = area * NODE_COST + costs[left] + costs[right];
-        let as_leaf = area * ranges[index].1 as f32;
-        in_leaf[index] = ranges[index].1 <= wide_leaf_size && as_leaf <= as_node;
-        costs[index] = if in_leaf[index] { as_leaf } else { as_node };
+    /// The children of the wide node made of binary internal node `index`: the roots of the
+    /// cheapest split of its subtree into up to `width` children.
+    fn children(&self, built: &BuiltTree, index: usize) -> Vec<usize> {
+        let left = built.nodes[index].first_child as usize;
+        let k = usize::from(self.node_split[index]);
+        let mut children = Vec::with_capacity(self.width);
+        self.roots(built, left, k, &mut children);
+        self.roots(built, left + 1, self.width - k, &mut children);
+        children
     }
-    // Everything below a planned leaf is part of it.
-    for index in 0..count {
-        let node = &built.nodes[index];
-        if in_leaf[index] && node.first_child != 0 {
-            in_leaf[node.first_child as usize] = true;
-            in_leaf[node.first_child as usize + 1] = true;
+
+    /// Appends the roots of the best cover of binary node `index` by at most `i` children.
+    fn roots(&self, built: &BuiltTree, index: usize, i: usize, out: &mut Vec<usize>) {
+        match self.covers[index][i - 1] {
+            Cover::Whole => out.push(index),
+            Cover::Split { left, right } => {
+                let first = built.nodes[index].first_child as usize;
+                self.roots(built, first, usize::from(left), out);
+                self.roots(built, first + 1, usize::from(right), out);
+            }
         }
     }
-    LeafPlan { ranges, in_leaf }
 }
 
 /// Appends the wide node for binary internal node `index` (and its subtree); returns its index.
 fn collapse_node<N: NodeKind>(
     built: &BuiltTree,
-    leaves: &LeafPlan,
-    index: u32,
+    plan: &Plan,
+    index: usize,
     nodes: &mut Vec<N>,
 ) -> u32 {
-    let children = widest_children(built, index, N::WIDTH);
     let wide = nodes.len();
     // A placeholder, so that the node keeps its preorder place before its subtrees.
     nodes.push(N::from_children(&[]));
-    let slots: Vec<(Aabb, u32)> = children
-        .iter()
-        .map(|&child| {
-            let word = match leaves.leaf(child as usize) {
-                Some((first, count)) => leaf_word::pack(first, count),
-                None => collapse_node(built, leaves, child, nodes),
+    let slots: Vec<(Aabb, u32)> = plan
+        .children(built, index)
+        .into_iter()
+        .map(|child| {
+            let word = if plan.as_leaf[child] {
+                let (first, count) = plan.ranges[child];
+                leaf_word::pack(first, count)
+            } else {
+                collapse_node(built, plan, child, nodes)
             };
-            (built.nodes[child as usize].bounds, word)
+            (built.nodes[child].bounds, word)
         })
         .collect();
     nodes[wide] = N::from_children(&slots);
     wide as u32
-}
-
-/// Up to `width` binary descendants of internal node `index` that together cover it. Nodes
-/// planned as leaves are opened too while the wide node has free slots: a slot costs nothing
-/// once the node is read, and smaller leaves test fewer triangles.
-fn widest_children(built: &BuiltTree, index: u32, width: usize) -> Vec<u32> {
-    let first = built.nodes[index as usize].first_child;
-    let mut children = vec![first, first + 1];
-    while children.len() < width {
-        let largest = children
-            .iter()
-            .enumerate()
-            .filter(|&(_, &c)| built.nodes[c as usize].first_child != 0)
-            .max_by(|a, b| {
-                let area = |c: u32| built.nodes[c as usize].bounds.half_area();
-                area(*a.1).total_cmp(&area(*b.1))
-            })
-            .map(|(k, _)| k);
-        let Some(k) = largest else { break };
-        let opened = built.nodes[children[k] as usize].first_child;
-        children[k] = opened;
-        children.insert(k + 1, opened + 1);
-    }
-    children
 }
 
 #[cfg(test)]
@@ -171,41 +219,145 @@ mod tests {
     use super::*;
     use crate::BuildOptions;
     use crate::bvh::build::build;
-    use crate::test_support::bunny;
+    use crate::mesh::Mesh;
+    use crate::test_support::{TestRng, bunny};
 
-    /// The planned leaves cover every slot exactly once, hold at most `wide_leaf_size`
-    /// triangles unless they are binary leaves, and never lie inside another planned leaf;
-    /// with `wide_leaf_size` 1 they are exactly the binary leaves.
-    #[test]
-    fn planned_leaves_partition_the_slots() {
-        let built = build(&bunny(), &BuildOptions::default()).unwrap();
-        for wide_leaf_size in [1, 4, 8, 16] {
-            let plan = plan_leaves(&built, wide_leaf_size);
-            // Walk from the root, stopping at planned leaves, as the collapse does.
-            let mut covered = vec![0u32; built.triangle_order.len()];
-            let mut stack = vec![0usize];
-            let mut merged = 0;
-            while let Some(index) = stack.pop() {
-                let node = &built.nodes[index];
-                match plan.leaf(index) {
-                    Some((first, count)) => {
-                        (first..first + count).for_each(|slot| covered[slot as usize] += 1);
-                        if node.first_child != 0 {
-                            merged += 1;
-                            assert!(count <= wide_leaf_size);
-                        }
-                    }
-                    None => {
-                        assert_ne!(node.first_child, 0, "a binary leaf is always a leaf");
-                        stack.extend([node.first_child as usize, node.first_child as usize + 1]);
+    /// The wide children the plan gives binary node `index` (as a child: itself as a leaf, or
+    /// the children of its wide node), checked, and the plan's cost of that subtree.
+    fn walk(built: &BuiltTree, plan: &Plan, index: usize, covered: &mut [u32]) -> f64 {
+        let node = &built.nodes[index];
+        let area = f64::from(node.bounds.half_area());
+        if plan.as_leaf[index] {
+            let (first, count) = plan.ranges[index];
+            (first..first + count).for_each(|slot| covered[slot as usize] += 1);
+            return area * f64::from(count);
+        }
+        assert_ne!(node.first_child, 0, "a binary leaf is always a leaf");
+        let children = plan.children(built, index);
+        assert!((2..=plan.width).contains(&children.len()));
+        let below: f64 = children
+            .iter()
+            .map(|&c| walk(built, plan, c, covered))
+            .sum();
+        area * NODE_COST + below
+    }
+
+    /// Every covering of binary node `index`'s subtree by at most `width` roots, as lists of
+    /// roots: the node itself, or a covering of its left half joined with one of its right.
+    fn coverings(built: &BuiltTree, index: usize, width: usize) -> Vec<Vec<usize>> {
+        let mut all = vec![vec![index]];
+        let first = built.nodes[index].first_child as usize;
+        if first != 0 {
+            for left in coverings(built, first, width) {
+                for right in coverings(built, first + 1, width) {
+                    if left.len() + right.len() <= width {
+                        all.push([left.clone(), right].concat());
                     }
                 }
             }
-            assert!(covered.iter().all(|&c| c == 1), "size {wide_leaf_size}");
-            match wide_leaf_size {
-                1 => assert_eq!(merged, 0),
-                4 => {}
-                _ => assert!(merged > 0, "size {wide_leaf_size}"),
+        }
+        all
+    }
+
+    /// The cheapest tree over binary node `index`'s subtree as one child, by brute force: as a
+    /// leaf (if it may be one) or as a wide node over the cheapest of all coverings of its
+    /// halves (`known`: the costs found so far, by node).
+    fn brute_force(
+        built: &BuiltTree,
+        index: usize,
+        (width, leaf_size): (usize, u32),
+        known: &mut [Option<f64>],
+    ) -> f64 {
+        if let Some(cost) = known[index] {
+            return cost;
+        }
+        let node = &built.nodes[index];
+        let area = f64::from(node.bounds.half_area());
+        let triangles = f64::from(subtree_triangles(built, index));
+        let first = node.first_child as usize;
+        if first == 0 {
+            return area * triangles;
+        }
+        let mut best = f64::INFINITY;
+        for left in coverings(built, first, width - 1) {
+            for right in coverings(built, first + 1, width - left.len()) {
+                let cost: f64 = left
+                    .iter()
+                    .chain(&right)
+                    .map(|&c| brute_force(built, c, (width, leaf_size), known))
+                    .sum();
+                best = best.min(area * NODE_COST + cost);
+            }
+        }
+        if subtree_triangles(built, index) <= leaf_size {
+            best = best.min(area * triangles);
+        }
+        known[index] = Some(best);
+        best
+    }
+
+    fn subtree_triangles(built: &BuiltTree, index: usize) -> u32 {
+        let node = &built.nodes[index];
+        match node.first_child as usize {
+            0 => node.count,
+            first => subtree_triangles(built, first) + subtree_triangles(built, first + 1),
+        }
+    }
+
+    /// `count` random small triangles in a unit cube.
+    fn soup(count: usize, seed: u64) -> Mesh {
+        let mut rng = TestRng::new(seed);
+        let mut vertices = Vec::new();
+        for _ in 0..count {
+            let center = rng.vec3(1.0);
+            vertices.extend((0..3).map(|_| center + rng.vec3(0.1)));
+        }
+        let triangles = (0..count as u32)
+            .map(|t| [3 * t, 3 * t + 1, 3 * t + 2])
+            .collect();
+        Mesh::new(vertices, triangles).unwrap()
+    }
+
+    /// The plan covers every slot exactly once, gives every wide node 2 to `width` children,
+    /// leaves at most `wide_leaf_size` triangles unless they are binary leaves (with size 1,
+    /// exactly the binary leaves), and its cost is the minimum that brute force finds over
+    /// every possible collapse of small trees.
+    #[test]
+    fn the_plan_is_the_cheapest_collapse() {
+        for seed in 0..12 {
+            let mesh = soup(8 + 2 * seed as usize, seed);
+            let options = BuildOptions::default().with_leaf_size(1);
+            let built = build(&mesh, &options).unwrap();
+            for width in [2, 4, 8] {
+                for leaf_size in [1, 3, 16] {
+                    let plan = Plan::new(&built, leaf_size, width);
+                    let mut covered = vec![0; built.triangle_order.len()];
+                    let cost = walk(&built, &plan, 0, &mut covered);
+                    assert!(covered.iter().all(|&c| c == 1));
+                    let mut known = vec![None; built.nodes.len()];
+                    let best = brute_force(&built, 0, (width, leaf_size), &mut known);
+                    assert!(
+                        (cost - best).abs() <= 1e-9 * best,
+                        "seed {seed} width {width} leaves {leaf_size}: {cost} vs {best}"
+                    );
+                }
+            }
+        }
+    }
+
+    /// On the bunny: every slot covered once, and the leaf size bound kept.
+    #[test]
+    fn the_plan_covers_the_bunny() {
+        let built = build(&bunny(), &BuildOptions::default()).unwrap();
+        for leaf_size in [1, 4, 16] {
+            let plan = Plan::new(&built, leaf_size, 8);
+            let mut covered = vec![0; built.triangle_order.len()];
+            walk(&built, &plan, 0, &mut covered);
+            assert!(covered.iter().all(|&c| c == 1), "size {leaf_size}");
+            for (index, node) in built.nodes.iter().enumerate() {
+                if plan.as_leaf[index] && node.first_child != 0 {
+                    assert!(plan.ranges[index].1 <= leaf_size);
+                }
             }
         }
     }
