@@ -4,4 +4,5 @@
 pub mod compare;
 pub mod embree_ffi;
 pub mod engines;
+pub mod race;
 pub mod rays;

@@ -19,10 +19,10 @@ use raybatch::{AccelKind, Mesh, Ray};
 
 use raybatch_peers::compare::{T_TOLERANCE, compare};
 use raybatch_peers::engines::{self, Run};
-use raybatch_peers::{embree_ffi, rays};
+use raybatch_peers::{embree_ffi, race, rays};
 
 const USAGE: &str = "\
-usage: peers [--mesh FILE.obj] [--rays N] [--sets A,B,..] [--seed S] [--runs R]
+usage: peers [--mesh FILE.obj] [--rays N] [--sets A,B,..] [--seed S] [--runs R] [--race R]
 
   --mesh FILE.obj  triangle mesh, treated as one object (default: data/stanford-bunny.obj of
                    the raybatch crate)
@@ -30,7 +30,11 @@ usage: peers [--mesh FILE.obj] [--rays N] [--sets A,B,..] [--seed S] [--runs R]
   --sets A,B,..    ray sets of raybatch_tools::scenes (default incoherent,outside-in,line-of-sight;
                    also camera, short); line-of-sight also times any-hit queries
   --seed S         ray seed (default 1)
-  --runs R         timed passes per build and per query, best kept (default 3)";
+  --runs R         timed passes per build and per query, best kept (default 3)
+  --race R         instead of the full table, the rows issue 7's targets name (Embree's one-ray
+                   calls, raybatch bvh4 / bvh8 per ray, bvh4 batched and in calls of 4096),
+                   built once and timed in turn for R rounds, best pass kept: ratios
+                   that hold on a machine whose speed drifts";
 
 struct Args {
     mesh: PathBuf,
@@ -38,6 +42,8 @@ struct Args {
     sets: Vec<rays::SetKind>,
     seed: u64,
     runs: usize,
+    /// Rounds of the race, if one was asked for (`--race R`).
+    race: Option<usize>,
 }
 
 fn parse_args() -> Result<Args, String> {
@@ -50,6 +56,7 @@ fn parse_args() -> Result<Args, String> {
         sets: rays::DEFAULT_SETS.to_vec(),
         seed: 1,
         runs: 3,
+        race: None,
     };
     let mut it = std::env::args().skip(1);
     while let Some(flag) = it.next() {
@@ -76,6 +83,7 @@ fn parse_args() -> Result<Args, String> {
             }
             "--seed" => args.seed = number(&value)?,
             "--runs" => args.runs = (number(&value)? as usize).max(1),
+            "--race" => args.race = Some((number(&value)? as usize).max(1)),
             _ => return Err(format!("unknown argument {flag}")),
         }
     }
@@ -119,25 +127,42 @@ fn run(args: &Args) -> Result<(), String> {
 
     println!("# raybatch vs peers\n");
     println!(
-        "Mesh `{}` ({} triangles, {} vertices); {} rays per set, seed {}; best of {} runs; \
+        "Mesh `{}` ({} triangles, {} vertices); {} rays per set, seed {}; best of {}; \
          build and query single-threaded; Embree {} ({} tasking).\n",
         args.mesh.display(),
         mesh.triangle_count(),
         mesh.vertices().len(),
         args.rays,
         args.seed,
-        args.runs,
+        match args.race {
+            Some(rounds) => format!("{rounds} rounds taking turns"),
+            None => format!("{} runs", args.runs),
+        },
         device.version_string(),
         device.tasking_system(),
     );
 
     for set in rays::ray_sets(&mesh, &args.sets, args.rays, args.seed) {
         eprintln!("ray set {}: {} rays", set.name(), set.rays.len());
+        if let Some(rounds) = args.race {
+            println!("## {} rays ({})\n", set.name(), set.description);
+            for (query, placings) in race::race(&device, &mesh, &set.rays, rounds, set.any_hit)? {
+                println!("{}", race::table(query, &placings));
+            }
+            continue;
+        }
         let runs = run_all(&device, &mesh, &set.rays, args.runs, set.any_hit)?;
         print_table(&set, &runs);
         if set.any_hit {
             print_any_hit_table(&runs);
         }
+    }
+    if args.race.is_some() {
+        println!(
+            "Answers differing: rays whose hit/miss (closest hit) or occlusion (any hit) \
+             differs from the first row's. Speed = the first row's best pass over the row's."
+        );
+        return Ok(());
     }
     println!(
         "Disagreements are against `{}` (`cast_ray`, watertight kernel): \
