@@ -107,7 +107,11 @@ fn main() {
         }
         // On the sparse world, also cells near the size of its rocks (512 and 1,024 per
         // triangle), where the dense grid's bits for empty cells outweigh the references.
-        let fine: &[f32] = if scene.name == "sparse" { &[512.0, 1024.0] } else { &[] };
+        let fine: &[f32] = if scene.name == "sparse" {
+            &[512.0, 1024.0]
+        } else {
+            &[]
+        };
         for &density in [2.0, HASH_CELLS_PER_TRIANGLE, 64.0].iter().chain(fine) {
             // The hash, and the dense grid with the same cells.
             let options = GridOptions {

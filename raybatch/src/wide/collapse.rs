@@ -27,9 +27,10 @@
 //! ray -5.8% / -6.8% / -2.7% instructions, 0.96-1.07 / 0.91-0.93 / 0.91-0.95 the time;
 //! `bvh4` in calls of 4,096 rays -11% / -10% / -10% instructions, 0.90-0.92 / 0.91-0.92 /
 //! 0.94-1.15 the time; `bvh4` batched -0.7% / -1.1% / -9.0% instructions, 0.96-1.02 /
-//! 0.99-1.05 / 0.95-1.01 the time; L1 data misses equal or fewer in every case. (A leaf
-//! overhead in the cost, or a node cost of 3 or 6, did no better: 6 gives the greedy
-//! collapse's memory and half its instruction gain.)
+//! 0.99-1.05 / 0.95-1.01 the time; L1 data misses equal or fewer in every case. Other costs,
+//! `bvh8` per ray: a node cost of 3 took 1-2% fewer instructions than 4 for 7% more memory
+//! (fandisk) and a few more misses; 6 gives the greedy collapse's memory and half its
+//! instruction gain; a per-leaf overhead of 1 or 2 triangle tests changed nothing or lost.
 //!
 //! [`BuildOptions::wide_leaf_size`]: crate::BuildOptions::wide_leaf_size
 
@@ -91,8 +92,9 @@ struct Plan {
     ranges: Vec<(u32, u32)>,
     /// Per binary node, true if as one child of a wide node it is a leaf (else a wide node).
     as_leaf: Vec<bool>,
-    /// Per binary node, its best cover by at most `i` children, at `covers[node][i - 1]`.
-    covers: Vec<[Cover; MAX_WIDTH]>,
+    /// Per binary node, its best cover by at most `i` children (`i` in `1..=width`), at
+    /// `covers[slot(node, i)]`.
+    covers: Vec<Cover>,
     /// Per binary internal node, how many of its wide node's children come from its left half.
     node_split: Vec<u8>,
 }
@@ -106,11 +108,13 @@ impl Plan {
             width,
             ranges: vec![(0, 0); count],
             as_leaf: vec![false; count],
-            covers: vec![[Cover::Whole; MAX_WIDTH]; count],
+            covers: vec![Cover::Whole; count * width],
             node_split: vec![0; count],
         };
-        // Per binary node, the cost of its best cover by at most `i` children, at `[i - 1]`.
-        let mut costs = vec![[0.0f64; MAX_WIDTH]; count];
+        // Per binary node, the cost of its best cover by at most `i` children, at
+        // `costs[slot(node, i)]`.
+        let mut costs = vec![0.0f64; count * width];
+        let slot = |node: usize, i: usize| slot(width, node, i);
         // Children come after their parent (pairs in depth-first order), so a reverse sweep
         // sees both children of a node before the node.
         for index in (0..count).rev() {
@@ -119,7 +123,7 @@ impl Plan {
             if node.first_child == 0 {
                 plan.ranges[index] = (node.first, node.count);
                 plan.as_leaf[index] = true;
-                costs[index] = [area * f64::from(node.count); MAX_WIDTH];
+                costs[slot(index, 1)..=slot(index, width)].fill(area * f64::from(node.count));
                 continue;
             }
             let (left, right) = (node.first_child as usize, node.first_child as usize + 1);
@@ -129,10 +133,9 @@ impl Plan {
             debug_assert_eq!(first + left_count, right_first, "slots are contiguous");
             plan.ranges[index] = (first, left_count + right_count);
             // The best split of `i` children between the two halves, for `i` in 2..=width.
-            let (left_costs, right_costs) = (costs[left], costs[right]);
             let split = |i: usize| {
                 (1..i)
-                    .map(|k| (left_costs[k - 1] + right_costs[i - k - 1], k))
+                    .map(|k| (costs[slot(left, k)] + costs[slot(right, i - k)], k))
                     .min_by(|a, b| a.0.total_cmp(&b.0))
                     .expect("i >= 2")
             };
@@ -147,18 +150,19 @@ impl Plan {
             } else {
                 as_node
             };
-            costs[index][0] = best;
+            let mut node_costs = [best; MAX_WIDTH];
             for i in 2..=width {
                 let (cost, k) = split(i);
                 if cost < best {
                     best = cost;
                     let (left, right) = (k as u8, (i - k) as u8);
-                    plan.covers[index][i - 1] = Cover::Split { left, right };
+                    plan.covers[slot(index, i)] = Cover::Split { left, right };
                 } else {
-                    plan.covers[index][i - 1] = plan.covers[index][i - 2];
+                    plan.covers[slot(index, i)] = plan.covers[slot(index, i - 1)];
                 }
-                costs[index][i - 1] = best;
+                node_costs[i - 1] = best;
             }
+            costs[slot(index, 1)..=slot(index, width)].copy_from_slice(&node_costs[..width]);
         }
         plan
     }
@@ -176,7 +180,7 @@ impl Plan {
 
     /// Appends the roots of the best cover of binary node `index` by at most `i` children.
     fn roots(&self, built: &BuiltTree, index: usize, i: usize, out: &mut Vec<usize>) {
-        match self.covers[index][i - 1] {
+        match self.covers[slot(self.width, index, i)] {
             Cover::Whole => out.push(index),
             Cover::Split { left, right } => {
                 let first = built.nodes[index].first_child as usize;
@@ -185,6 +189,11 @@ impl Plan {
             }
         }
     }
+}
+
+/// Where a plan of `width` keeps binary node `node`'s entry for covers by at most `i` children.
+fn slot(width: usize, node: usize, i: usize) -> usize {
+    node * width + i - 1
 }
 
 /// Appends the wide node for binary internal node `index` (and its subtree); returns its index.
