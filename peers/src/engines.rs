@@ -135,6 +135,18 @@ pub fn raybatch_engine(kind: AccelKind) -> String {
     format!("raybatch {}", kind.name())
 }
 
+/// Rays per call of the small-call rows: a game frame's line-of-sight work (issue 7).
+pub const FRAME_CALL: usize = 4096;
+
+/// The row name of raybatch's batched engine on `kind`: all rays in one call, or in calls of
+/// `calls_of` rays.
+pub fn raybatch_batched_engine(kind: AccelKind, calls_of: Option<usize>) -> String {
+    match calls_of {
+        None => format!("{} batched", raybatch_engine(kind)),
+        Some(n) => format!("{} batched, calls of {n}", raybatch_engine(kind)),
+    }
+}
+
 /// `AccelKind::build` (single-threaded: `parallel = false`, other options default) and
 /// `cast_ray` (watertight kernel). With `any_hit`, also `occluded`.
 pub fn raybatch(
@@ -206,10 +218,7 @@ pub fn raybatch_batched(
             })
         })
         .collect();
-    let engine = match calls_of {
-        None => format!("{} batched", raybatch_engine(kind)),
-        Some(n) => format!("{} batched, calls of {n}", raybatch_engine(kind)),
-    };
+    let engine = raybatch_batched_engine(kind, calls_of);
     progress(&engine, build, query, rays.len());
     let any_hit = any_hit.then(|| {
         let mut occluded = vec![false; rays.len()];

@@ -5,7 +5,8 @@
 //! `AccelKind::ALL`, per ray and batched (the default one also in calls of 4,096 rays). The
 //! hits are checked against raybatch's default structure (`AccelKind::DEFAULT`, `cast_ray`)
 //! and a Markdown table of build time, query time, Mrays/s and the speed relative to Embree's
-//! `rtcIntersect1` goes to stdout; progress goes to stderr.
+//! `rtcIntersect1` goes to stdout; progress goes to stderr. `--race R` times only the rows
+//! issue 7's targets name, taking turns (`raybatch_peers::race`).
 //!
 //! ```text
 //! bash peers/setup.sh && cargo run --release -p raybatch-peers -- --rays 1000000
@@ -33,8 +34,9 @@ usage: peers [--mesh FILE.obj] [--rays N] [--sets A,B,..] [--seed S] [--runs R] 
   --runs R         timed passes per build and per query, best kept (default 3)
   --race R         instead of the full table, the rows issue 7's targets name (Embree's one-ray
                    calls, raybatch bvh4 / bvh8 per ray, bvh4 batched and in calls of 4096),
-                   built once and timed in turn for R rounds, best pass kept: ratios
-                   that hold on a machine whose speed drifts";
+                   built once per ray set and timed in turn for R rounds (R at least the
+                   rows' count lets each go first once), best pass kept: ratios that hold on
+                   a machine whose speed drifts; --runs is not used";
 
 struct Args {
     mesh: PathBuf,
@@ -175,9 +177,6 @@ fn run(args: &Args) -> Result<(), String> {
     Ok(())
 }
 
-/// Rays per call of the "calls of" row: a game frame's line-of-sight work (issue 7).
-const FRAME_CALL: usize = 4096;
-
 /// Every library on one ray set; the reference (raybatch's default structure, per ray) first,
 /// then raybatch's other structures per ray, then every structure batched, then the peers.
 fn run_all(
@@ -203,7 +202,7 @@ fn run_all(
         )?);
     }
     // The default structure in calls of a game frame's size, like for like with the peers.
-    let frame = (runs, Some(FRAME_CALL));
+    let frame = (runs, Some(engines::FRAME_CALL));
     out.push(engines::raybatch_batched(
         reference, mesh, rays, frame, any_hit,
     )?);

@@ -1,6 +1,9 @@
 //! The race: the rows issue 7's targets name (Embree's one-ray calls, raybatch per ray,
-//! batched and in calls of 4,096), built once and timed pass by pass in turn, each round
-//! starting with the next contender, best pass kept. (tinybvh stays in the full table only:
+//! batched and in calls of 4,096), built once per ray set and timed pass by pass in turn,
+//! round `r` starting with contender `r` (so `R` at least the number of rows lets each go
+//! first once), best pass kept. Each pass writes one answer per ray (hit or not, occluded or
+//! not) into a buffer made before the timing; the rows are checked against the first on those
+//! answers only (the full table compares distances and triangles too). (tinybvh stays in the full table only:
 //! its tree, built beside the others here, crashed in tinybvh-rs's ray setup.)
 //!
 //! The full table times each library's passes back to back, so on a machine whose speed drifts
@@ -15,16 +18,16 @@ use std::time::{Duration, Instant};
 use raybatch::{AccelKind, AnyAccel, BatchOptions, BuildOptions, Hit, Mesh, Ray};
 
 use crate::embree_ffi as rtc;
-use crate::engines::{EMBREE_QUALITY, raybatch_engine};
+use crate::engines::{EMBREE_QUALITY, FRAME_CALL, raybatch_batched_engine, raybatch_engine};
 
-/// Rays per call of the small-call rows: a game frame's line-of-sight work.
-pub const FRAME_CALL: usize = 4096;
+/// One timed pass over every ray, which writes, per ray, whether it hit (closest hit) or is
+/// occluded (any hit).
+type Pass<'a> = Box<dyn FnMut(&mut [bool]) + 'a>;
 
-/// One contender: its row name and one timed pass over every ray, which returns, per ray,
-/// whether it hit (closest hit) or is occluded (any hit).
+/// One contender: its row name and its pass.
 struct Contender<'a> {
     name: String,
-    pass: Box<dyn FnMut() -> Vec<bool> + 'a>,
+    pass: Pass<'a>,
 }
 
 /// A contender's result: its best pass and how many rays it answered otherwise than the
@@ -65,16 +68,13 @@ pub fn race(
 
     let mut closest = vec![Contender {
         name: "Embree rtcIntersect1".into(),
-        pass: Box::new(|| {
+        pass: Box::new(|hit: &mut [bool]| {
             let mut context = rtc::rtc_init_intersect_context();
-            native
-                .iter()
-                .map(|r| {
-                    let mut rh = rtc::RTCRayHit::new(*r);
-                    scene.intersect1(&mut context, &mut rh);
-                    rh.closest().is_some()
-                })
-                .collect()
+            for (hit, r) in hit.iter_mut().zip(&native) {
+                let mut rh = rtc::RTCRayHit::new(*r);
+                scene.intersect1(&mut context, &mut rh);
+                *hit = rh.closest().is_some();
+            }
         }),
     }];
     for tree in [&bvh4, &bvh8] {
@@ -82,17 +82,16 @@ pub fn race(
     }
     closest.push(batched_closest(&bvh4, rays, None));
     closest.push(batched_closest(&bvh4, rays, Some(FRAME_CALL)));
-    let mut out = vec![("closest hit", run(closest, rounds))];
+    let mut out = vec![("closest hit", run(closest, rays.len(), rounds))];
 
     if any_hit {
         let mut occluded = vec![Contender {
             name: "Embree rtcOccluded1".into(),
-            pass: Box::new(|| {
+            pass: Box::new(|occluded: &mut [bool]| {
                 let mut context = rtc::rtc_init_intersect_context();
-                native
-                    .iter()
-                    .map(|r| scene.occluded1(&mut context, r))
-                    .collect()
+                for (occluded, r) in occluded.iter_mut().zip(&native) {
+                    *occluded = scene.occluded1(&mut context, r);
+                }
             }),
         }];
         for tree in [&bvh4, &bvh8] {
@@ -100,24 +99,24 @@ pub fn race(
         }
         occluded.push(batched_occluded(&bvh4, rays, None));
         occluded.push(batched_occluded(&bvh4, rays, Some(FRAME_CALL)));
-        out.push(("any hit", run(occluded, rounds)));
+        out.push(("any hit", run(occluded, rays.len(), rounds)));
     }
     Ok(out)
 }
 
-/// `rounds` rounds of one pass per contender, round `r` starting with contender `r`.
-fn run(mut contenders: Vec<Contender<'_>>, rounds: usize) -> Vec<Placing> {
+/// `rounds` rounds of one pass per contender over `rays` rays, round `r` starting with
+/// contender `r`.
+fn run(mut contenders: Vec<Contender<'_>>, rays: usize, rounds: usize) -> Vec<Placing> {
     let n = contenders.len();
     let mut best = vec![Duration::MAX; n];
-    let mut answers: Vec<Vec<bool>> = vec![Vec::new(); n];
-    for round in 0..rounds.max(1) {
+    let mut answers = vec![vec![false; rays]; n];
+    for round in 0..rounds {
         for k in (0..n).map(|k| (k + round) % n) {
             let start = Instant::now();
-            let pass = black_box((contenders[k].pass)());
+            (contenders[k].pass)(black_box(&mut answers[k]));
             best[k] = best[k].min(start.elapsed());
-            answers[k] = pass;
         }
-        eprintln!("  round {} of {}", round + 1, rounds.max(1));
+        eprintln!("  round {} of {rounds}", round + 1);
     }
     contenders
         .iter()
@@ -139,15 +138,11 @@ fn per_ray<'a>(
 ) -> Contender<'a> {
     Contender {
         name: raybatch_engine(*kind),
-        pass: Box::new(move || rays.iter().map(|r| query(tree, black_box(r))).collect()),
-    }
-}
-
-/// The row name of a batched contender.
-fn batched_name(kind: AccelKind, calls_of: Option<usize>) -> String {
-    match calls_of {
-        None => format!("{} batched", raybatch_engine(kind)),
-        Some(n) => format!("{} batched, calls of {n}", raybatch_engine(kind)),
+        pass: Box::new(move |answers: &mut [bool]| {
+            for (answer, r) in answers.iter_mut().zip(rays) {
+                *answer = query(tree, black_box(r));
+            }
+        }),
     }
 }
 
@@ -161,13 +156,16 @@ fn batched_closest<'a>(
     let batch = BatchOptions::default().with_parallel(false);
     let mut hits: Vec<Option<Hit>> = vec![None; rays.len()];
     Contender {
-        name: batched_name(*kind, calls_of),
-        pass: Box::new(move || {
+        name: raybatch_batched_engine(*kind, calls_of),
+        pass: Box::new(move |hit: &mut [bool]| {
             for (rays, out) in rays.chunks(size).zip(hits.chunks_mut(size)) {
                 tree.cast_rays_with(rays, out, &batch)
                     .expect("output sized to the rays");
             }
-            hits.iter().map(Option::is_some).collect()
+            // Read back as the one-ray rows write theirs: one answer per ray.
+            for (hit, h) in hit.iter_mut().zip(&hits) {
+                *hit = h.is_some();
+            }
         }),
     }
 }
@@ -180,15 +178,13 @@ fn batched_occluded<'a>(
 ) -> Contender<'a> {
     let size = calls_of.unwrap_or(rays.len()).max(1);
     let batch = BatchOptions::default().with_parallel(false);
-    let mut occluded = vec![false; rays.len()];
     Contender {
-        name: batched_name(*kind, calls_of),
-        pass: Box::new(move || {
+        name: raybatch_batched_engine(*kind, calls_of),
+        pass: Box::new(move |occluded: &mut [bool]| {
             for (rays, out) in rays.chunks(size).zip(occluded.chunks_mut(size)) {
                 tree.occluded_batch_with(rays, out, &batch)
                     .expect("output sized to the rays");
             }
-            occluded.clone()
         }),
     }
 }
