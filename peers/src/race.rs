@@ -148,42 +148,49 @@ fn per_ray<'a>(
 
 /// `cast_rays_with` on one thread, all rays in one call or in calls of `calls_of`.
 fn batched_closest<'a>(
-    (kind, tree): &'a (AccelKind, AnyAccel),
+    tree: &'a (AccelKind, AnyAccel),
     rays: &'a [Ray],
     calls_of: Option<usize>,
 ) -> Contender<'a> {
-    let size = calls_of.unwrap_or(rays.len()).max(1);
-    let batch = BatchOptions::default().with_parallel(false);
-    let mut hits: Vec<Option<Hit>> = vec![None; rays.len()];
-    Contender {
-        name: raybatch_batched_engine(*kind, calls_of),
-        pass: Box::new(move |hit: &mut [bool]| {
-            for (rays, out) in rays.chunks(size).zip(hits.chunks_mut(size)) {
-                tree.cast_rays_with(rays, out, &batch)
-                    .expect("output sized to the rays");
-            }
-            // Read back as the one-ray rows write theirs: one answer per ray.
-            for (hit, h) in hit.iter_mut().zip(&hits) {
-                *hit = h.is_some();
-            }
-        }),
-    }
+    let mut hits: Vec<Option<Hit>> = vec![None; calls_of.unwrap_or(rays.len())];
+    batched(tree, rays, calls_of, move |tree, rays, hit, batch| {
+        let hits = &mut hits[..rays.len()];
+        tree.cast_rays_with(rays, hits, batch)
+            .expect("output sized to the rays");
+        // Read back as the one-ray rows write theirs: one answer per ray.
+        for (hit, h) in hit.iter_mut().zip(hits) {
+            *hit = h.is_some();
+        }
+    })
 }
 
 /// `occluded_batch_with` on one thread, all rays in one call or in calls of `calls_of`.
 fn batched_occluded<'a>(
+    tree: &'a (AccelKind, AnyAccel),
+    rays: &'a [Ray],
+    calls_of: Option<usize>,
+) -> Contender<'a> {
+    batched(tree, rays, calls_of, |tree, rays, occluded, batch| {
+        tree.occluded_batch_with(rays, occluded, batch)
+            .expect("output sized to the rays")
+    })
+}
+
+/// A batched contender: `call` answers each call's rays (all of them, or `calls_of` at a
+/// time) on one thread, writing one answer per ray.
+fn batched<'a>(
     (kind, tree): &'a (AccelKind, AnyAccel),
     rays: &'a [Ray],
     calls_of: Option<usize>,
+    mut call: impl FnMut(&AnyAccel, &[Ray], &mut [bool], &BatchOptions) + 'a,
 ) -> Contender<'a> {
     let size = calls_of.unwrap_or(rays.len()).max(1);
     let batch = BatchOptions::default().with_parallel(false);
     Contender {
         name: raybatch_batched_engine(*kind, calls_of),
-        pass: Box::new(move |occluded: &mut [bool]| {
-            for (rays, out) in rays.chunks(size).zip(occluded.chunks_mut(size)) {
-                tree.occluded_batch_with(rays, out, &batch)
-                    .expect("output sized to the rays");
+        pass: Box::new(move |answers: &mut [bool]| {
+            for (rays, out) in rays.chunks(size).zip(answers.chunks_mut(size)) {
+                call(tree, rays, out, &batch);
             }
         }),
     }

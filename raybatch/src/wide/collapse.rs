@@ -98,6 +98,8 @@ struct Plan {
     /// `covers[slot(node, i)]`.
     covers: Vec<Cover>,
     /// Per binary internal node, how many of its wide node's children come from its left half.
+    /// (Not read from `covers`: with a zero-area box the node's own price ties its best split,
+    /// and the cover at full width is then the node itself.)
     node_split: Vec<u8>,
 }
 
