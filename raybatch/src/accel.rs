@@ -45,8 +45,16 @@ pub trait Accel: Sync + Sized {
     /// [`crate::BatchOptions::ordering`] asks (the default). Structures whose walks take
     /// nothing from the stream's octant (each ray walked alone, in its own order: the grids,
     /// the kd-tree) say `false` and get each chunk as one stream, which keeps rays that start
-    /// near each other together for an order by origin (`crate::batch::origin_order`).
+    /// near each other together for an order by origin (`crate::batch::origin_order`). So do
+    /// the wide trees, whose split tests each ray against its own octant's planes and gains
+    /// more from long lists than from one child order per stream (`wide::stream::CHUNK`).
     const GROUP_BY_OCTANT: bool = true;
+
+    /// The largest chunk a batch is cut into for this structure, unless
+    /// [`crate::BatchOptions::max_chunk`] says otherwise: by default its layout's
+    /// ([`StreamLayout::default_max_chunk`]). The wide trees, whose chunk is one stream of
+    /// every octant, walk shorter chunks fastest (`wide::stream::CHUNK`).
+    const DEFAULT_MAX_CHUNK: usize = Self::STREAM_LAYOUT.default_max_chunk();
 
     /// Reports to `visitor`, as ray number `id`, every hit of `ray` with kernel `K` in
     /// `[ray.tmin, tmax]`, where `tmax` starts at `ray.tmax` and follows what the visitor sets;

@@ -4,7 +4,7 @@
 //! smaller ones keep the working set in cache and give every thread work.
 //!
 //! On one thread the batch is cut into chunks of [`BatchOptions::max_chunk`] rays (or the
-//! structure's own, [`StreamLayout::default_max_chunk`]). On several,
+//! structure's own, [`crate::accel::Accel::DEFAULT_MAX_CHUNK`]). On several,
 //! chunks shrink as the batch runs out (guided scheduling): each is a share of the rays still
 //! waiting, so the threads start on large chunks and finish on small ones, and none sits idle
 //! while another works through a large last chunk. Threads take the chunks in order from one
@@ -17,7 +17,6 @@
 use crossbeam::queue::ArrayQueue;
 
 use super::options::BatchOptions;
-use crate::accel::StreamLayout;
 use crate::geom::Ray;
 use crate::parallel;
 
@@ -41,16 +40,17 @@ pub(crate) fn plan(
 }
 
 /// Runs `f(offset, rays, out)` on matching chunks of `rays` and `out` (`offset`: the chunk's
-/// first ray in the batch) for a structure of `layout`, in parallel when `options.parallel`
-/// and threads are available.
+/// first ray in the batch) for a structure whose own largest chunk is `default_largest`
+/// ([`crate::accel::Accel::DEFAULT_MAX_CHUNK`]), in parallel when `options.parallel` and
+/// threads are available.
 pub(crate) fn for_each_chunk<T: Send>(
     rays: &[Ray],
     out: &mut [T],
-    (options, layout): (&BatchOptions, StreamLayout),
+    (options, default_largest): (&BatchOptions, usize),
     f: impl Fn(usize, &[Ray], &mut [T]) + Sync,
 ) {
     let threads = parallel::thread_count(options.parallel);
-    let bounds = options.chunk_bounds(layout);
+    let bounds = options.chunk_bounds(default_largest);
     if threads <= 1 {
         let chunk = bounds.1;
         rays.chunks(chunk)
@@ -89,6 +89,7 @@ pub(crate) fn for_each_chunk<T: Send>(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::accel::StreamLayout;
 
     /// The plan covers the batch in order with no gap, its chunks within the bounds (the last
     /// one possibly smaller) and never growing.
@@ -97,7 +98,7 @@ mod tests {
         let options = BatchOptions::default()
             .with_min_chunk(4096)
             .with_max_chunk(1 << 17);
-        let bounds = options.chunk_bounds(StreamLayout::Records);
+        let bounds = options.chunk_bounds(StreamLayout::Records.default_max_chunk());
         for n in [0, 1, 4095, 4096, 10_000, 131_072, 1_000_000, 3_333_333] {
             for threads in [1, 2, 3, 8] {
                 let plan = plan(n, threads, bounds);

@@ -1,6 +1,5 @@
 //! Options of the batched queries.
 
-use crate::accel::StreamLayout;
 use crate::geom::Kernel;
 
 use super::partition::PartitionKernel;
@@ -66,7 +65,8 @@ pub struct BatchOptions {
     /// The ray/triangle kernel.
     pub kernel: Kernel,
     /// How rays are grouped by direction. Structures that walk each ray alone (grids, the
-    /// kd-tree: `Accel::GROUP_BY_OCTANT` is false) always get one group.
+    /// kd-tree) or test each ray against its own octant's planes (the wide trees:
+    /// `Accel::GROUP_BY_OCTANT` is false) always get one group.
     pub ordering: BatchOrdering,
     /// Split large batches over rayon's current thread pool (on the calling thread if no thread
     /// can be started).
@@ -78,14 +78,13 @@ pub struct BatchOptions {
     /// Smallest chunk handed to one rayon task.
     pub min_chunk: usize,
     /// Largest chunk traversed as one batch; `None` (the default) leaves it to the structure
-    /// ([`crate::accel::StreamLayout::default_max_chunk`]: 1,048,576 rays for the structures
-    /// walked over records, the wide trees, grids and kd-tree; 131,072 for those that move
-    /// lanes). Bigger chunks share each node and leaf among more rays (a chunk is walked as
-    /// eight streams, one per direction octant; the measured sweep is at `wide::stream`'s walk
-    /// length), at about 90 bytes of working memory a ray, which the thread keeps for its next
-    /// call: some 90 MiB per thread for a 1M-ray chunk. On an Intel Xeon, before the split
-    /// prefetched its rays, 1M-ray chunks were slower than 128k ones (fandisk 131 against 95
-    /// ms): where memory is slow or scarce, `with_max_chunk(131_072)` is the setting to try.
+    /// ([`crate::accel::Accel::DEFAULT_MAX_CHUNK`]: 65,536 rays for the wide trees, walked as
+    /// one stream of every octant; 1,048,576 for the grids and kd-tree, which take one ray at
+    /// a time; 131,072 for the binary trees, which move lanes and walk a stream per direction
+    /// octant). Bigger chunks share each node and leaf among more rays; smaller ones keep their
+    /// rays' records (64 bytes a ray) in the caches: the measured sweep is at
+    /// `wide::stream::CHUNK`. A chunk takes about 90 bytes of working memory a ray, which the
+    /// thread keeps for its next call (some 6 MiB per thread for the wide trees' chunks).
     pub max_chunk: Option<usize>,
     /// A node reached by fewer rays than this finishes its subtree one ray at a time.
     pub single_ray_below: usize,
@@ -147,10 +146,11 @@ impl BatchOptions {
         self.min_chunk = min_chunk.max(1);
         self
     }
-    /// The smallest and the largest chunk for a structure of `layout` (both at least 1, the
+    /// The smallest and the largest chunk for a structure whose own largest chunk is
+    /// `default_largest` ([`crate::accel::Accel::DEFAULT_MAX_CHUNK`]; both at least 1, the
     /// smallest no larger than the largest).
-    pub(crate) fn chunk_bounds(&self, layout: StreamLayout) -> (usize, usize) {
-        let largest = self.max_chunk.unwrap_or(layout.default_max_chunk()).max(1);
+    pub(crate) fn chunk_bounds(&self, default_largest: usize) -> (usize, usize) {
+        let largest = self.max_chunk.unwrap_or(default_largest).max(1);
         (self.min_chunk.clamp(1, largest), largest)
     }
 

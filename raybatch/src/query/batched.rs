@@ -162,8 +162,8 @@ fn for_each_prepared_chunk<A: Accel, T: Send>(
 ) {
     let partitioner = options.partition.checked();
     let cull = accel.cull_bounds();
-    let layout = (options, A::STREAM_LAYOUT);
-    for_each_chunk(rays, out, layout, |offset, rays, out| {
+    let chunking = (options, A::DEFAULT_MAX_CHUNK);
+    for_each_chunk(rays, out, chunking, |offset, rays, out| {
         with_chunk::<A, _>((rays, cull), options, partitioner, |chunk, answers| {
             f(offset, out, chunk, answers)
         })

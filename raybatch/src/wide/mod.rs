@@ -171,6 +171,10 @@ pub struct WideScratch {
 
 impl<N: NodeKind> Accel for WideBvh<N> {
     type Scratch = WideScratch;
+    /// A chunk is one stream of rays of every octant, shorter than other structures' chunks
+    /// (see [`stream::CHUNK`]).
+    const GROUP_BY_OCTANT: bool = false;
+    const DEFAULT_MAX_CHUNK: usize = stream::CHUNK;
 
     /// The root box, which the one-ray loop tests before anything else.
     fn cull_bounds(&self) -> Option<Aabb> {
@@ -215,9 +219,11 @@ impl<N: NodeKind> Accel for WideBvh<N> {
 /// time).
 const INTERLEAVE_ABOVE_BYTES: usize = 16 << 20;
 
-/// Streams shorter than this share few node fetches (a call of 4,096 rays makes eight octant
-/// streams of about 512), so [`Interleave::Auto`] interleaves them from the smaller working
-/// set [`SHORT_INTERLEAVE_ABOVE_BYTES`] on. Measured on an Intel Xeon (2 MiB of L2 per core),
+/// Streams shorter than this share few node fetches, so [`Interleave::Auto`] interleaves them
+/// from the smaller working set [`SHORT_INTERLEAVE_ABOVE_BYTES`] on. (Measured when a call of
+/// 4,096 rays made eight octant streams of about 512; it now makes one stream of 4,096
+/// ([`stream::CHUNK`]), so only a scene's octant streams and calls under 2,048 rays, which
+/// [`crate::BatchOptions::min_batch`] sends one ray at a time, are this short.) Measured on an Intel Xeon (2 MiB of L2 per core),
 /// one thread, 1M incoherent rays in calls of N rays, side by side vs nodes shared, best of
 /// 2 x 3 passes (`raybatch query --batched --batch-size N --interleave always|never`, ms):
 /// bunny (3.9 MB) N = 4,096: 172 vs 205 (line-of-sight any hit 82 vs 93), 16,384: 176 vs 183,

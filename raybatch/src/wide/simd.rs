@@ -5,8 +5,9 @@
 //!   [`super::node::WideRay::slabs_portable`] (compared by `node::tests`);
 //! - [`slabs8`]: one ray against an 8-wide node's eight boxes with AVX2, twin of
 //!   [`WideNode8::hits_by_halves`] (compared by `node8::tests`);
-//! - [`stream_masks`]: eight rays at a time against each box with AVX2, for the stream split,
-//!   twin of its one-ray loop (compared by `stream::tests`).
+//! - [`stream_masks`]: eight rays of one octant at a time against each box with AVX2, for the
+//!   stream split, and [`stream_masks_mixed`], eight rays of any octants, twins of its one-ray
+//!   loop (compared by `stream::tests`).
 //!
 //! The leaves' eight-ray sign filter is `geom::sign_filter::RayOctet`, shared with the binary
 //! trees' stream engine.
@@ -21,10 +22,10 @@
 
 use std::arch::x86_64::{
     __m128, __m128i, __m256i, _CMP_LE_OQ, _mm_cmple_ps, _mm_loadl_epi64, _mm_max_ps, _mm_min_ps,
-    _mm_movemask_ps, _mm_mul_ps, _mm_set1_ps, _mm_sub_ps, _mm256_cmp_ps, _mm256_cvtepu8_epi32,
-    _mm256_load_ps, _mm256_loadu_si256, _mm256_max_ps, _mm256_min_ps, _mm256_movemask_ps,
-    _mm256_mul_ps, _mm256_permutevar8x32_epi32, _mm256_set1_ps, _mm256_storeu_ps,
-    _mm256_storeu_si256, _mm256_sub_ps,
+    _mm_movemask_ps, _mm_mul_ps, _mm_set1_ps, _mm_sub_ps, _mm256_blendv_ps, _mm256_cmp_ps,
+    _mm256_cvtepu8_epi32, _mm256_load_ps, _mm256_loadu_si256, _mm256_max_ps, _mm256_min_ps,
+    _mm256_movemask_ps, _mm256_mul_ps, _mm256_permutevar8x32_epi32, _mm256_set1_ps,
+    _mm256_storeu_ps, _mm256_storeu_si256, _mm256_sub_ps,
 };
 
 use glam::Vec4;
@@ -121,7 +122,23 @@ pub(crate) fn stream_masks(
     group_bits: &mut [u64],
 ) -> (usize, [u32; 8]) {
     // SAFETY: an `Avx2` exists only if the CPU has AVX2.
-    unsafe { stream_masks_avx2((planes, width.min(8)), rays, ids, group_bits) }
+    unsafe { stream_masks_avx2::<false>((planes, width.min(8)), rays, ids, group_bits) }
+}
+
+/// [`stream_masks`] for rays of any octants: `planes` are the node's octant-0 planes (near is
+/// the box's minimum, far its maximum), and each lane swaps them where its inverse direction
+/// is negative (its sign bit: the ray's octant bit, `-0.0` included), which picks exactly the
+/// planes the ray's own octant would.
+#[inline(always)]
+pub(crate) fn stream_masks_mixed(
+    _: Avx2,
+    (planes, width): (&StreamPlanes, usize),
+    rays: &[PreparedRay],
+    ids: &[u32],
+    group_bits: &mut [u64],
+) -> (usize, [u32; 8]) {
+    // SAFETY: an `Avx2` exists only if the CPU has AVX2.
+    unsafe { stream_masks_avx2::<true>((planes, width.min(8)), rays, ids, group_bits) }
 }
 
 /// See [`stream_masks`].
@@ -130,7 +147,7 @@ pub(crate) fn stream_masks(
 /// The CPU must support AVX2.
 #[inline]
 #[target_feature(enable = "avx2")]
-unsafe fn stream_masks_avx2(
+unsafe fn stream_masks_avx2<const MIXED: bool>(
     (planes, width): (&StreamPlanes, usize),
     rays: &[PreparedRay],
     ids: &[u32],
@@ -155,8 +172,14 @@ unsafe fn stream_masks_avx2(
         for (child, count) in counts.iter_mut().enumerate().take(width) {
             let (mut near, mut far) = (tmin, tmax);
             for a in 0..3 {
-                let near_plane = _mm256_set1_ps(planes.near[a][child]);
-                let far_plane = _mm256_set1_ps(planes.far[a][child]);
+                let mut near_plane = _mm256_set1_ps(planes.near[a][child]);
+                let mut far_plane = _mm256_set1_ps(planes.far[a][child]);
+                if MIXED {
+                    (near_plane, far_plane) = (
+                        _mm256_blendv_ps(near_plane, far_plane, inv[a]),
+                        _mm256_blendv_ps(far_plane, near_plane, inv[a]),
+                    );
+                }
                 let enter = _mm256_mul_ps(_mm256_sub_ps(near_plane, o[a]), inv[a]);
                 let exit =
                     _mm256_mul_ps(_mm256_mul_ps(_mm256_sub_ps(far_plane, o[a]), inv[a]), scale);

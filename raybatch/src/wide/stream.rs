@@ -3,12 +3,15 @@
 //!
 //! The rays are the batch's prepared records (one cache line each, holding the ray's current
 //! range end: the tree asks for [`crate::accel::StreamLayout::Records`]), walked in place; a
-//! stream in lanes (from a scene) is copied out first. The walk moves only 4-byte ray indices. At a node reached by a
-//! list of rays, eight rays at a time test each child box (AVX2, the planes picked once per
-//! node for the stream's octant; the node's one-ray test for the rest) and each ray's index is appended to the list of every child it enters; the node's
-//! boxes are read once for the whole list. Child lists are pushed in the node's precomputed
-//! order for the stream's octant, farther child first, so the nearer ones are walked first and
-//! closest-hit rays shrink early. A leaf's triangles are fetched once and tested against every
+//! stream in lanes (from a scene) is copied out first. A batch's chunk is one stream of rays
+//! of every direction octant ([`CHUNK`] says why); a scene's stream holds one octant. The walk
+//! moves only 4-byte ray indices. At a node reached by a list of rays, eight rays at a time
+//! test each child box (AVX2; each ray against its own octant's planes, or, in a stream of one
+//! octant, the planes picked once per node; the node's one-ray test for the rest) and each
+//! ray's index is appended to the list of every child it enters; the node's boxes are read
+//! once for the whole list. A stream of one octant pushes child lists in the node's
+//! precomputed order for it, farther child first, so the nearer ones are walked first and
+//! closest-hit rays shrink early; a mixed stream pushes them in slot order. A leaf's triangles are fetched once and tested against every
 //! ray of its list, eight rays at a time through the watertight kernel's sign filter first
 //! (AVX2, `geom::sign_filter::RayOctet`; four at a time elsewhere), which proves most misses, so the scalar
 //! kernel runs only where a hit is possible (fandisk, 1M incoherent rays, one thread: 114-120
@@ -180,12 +183,29 @@ fn trace_blocks<N: NodeKind, K: TriangleTest, V: Visitor>(
     }
 }
 
-/// Rays per walk: a default chunk of the record layout, so that each of its octant streams is
-/// walked whole (a longer chunk, from [`crate::BatchOptions::max_chunk`], is walked in parts
-/// this long). Longer walks share each node and
+/// The wide trees' default chunk ([`crate::accel::Accel::DEFAULT_MAX_CHUNK`]), walked as one
+/// stream of rays of every octant (`Accel::GROUP_BY_OCTANT` is false for them: the split tests
+/// each ray against its own octant's planes, `simd::stream_masks_mixed`). A call's rays used to
+/// be grouped into eight octant streams, so that the split could pick one octant's planes per
+/// node and push the child lists in that octant's order; but a call of 4,096 rays then made
+/// streams of about 512, which the walk left to the one-ray loop after two or three levels,
+/// and a large call walked 1M records (64 MiB) out of the caches. One stream per chunk keeps
+/// lists eight times as long for the same records, at the price of child lists pushed in slot
+/// order (no octant order for a mix of octants). Measured on an AMD EPYC (1 MiB of L2), one
+/// thread, incoherent rays, closest hit, every variant alternated in one process, best of 5,
+/// time against octant streams (1M-ray chunks): one mixed stream per call of 4,096 rays 0.90
+/// / 0.74 / 0.96 (fandisk / teapot / bunny), 16,384 0.73 / 0.73 / 0.91, 65,536 0.71 / 0.76 /
+/// 0.69; 1M rays in one call, mixed chunks of 32k 0.91 / 0.83 / 1.10, **64k 0.85 / 0.79 /
+/// 0.94**, 128k 0.99 / 0.96 / 0.94, 256k 1.25 / 1.24 / 1.04, 1M 1.59 / 1.69 / 1.45 (a long
+/// mixed walk reads its records out of the caches). Line-of-sight segments, any hit: 4,096
+/// 0.84 / 0.83 / 0.83; 1M in chunks of 64k 0.86 / 0.86 / 1.01, 128k 0.91 / 0.81 / 0.92.
+pub(crate) const CHUNK: usize = 1 << 16;
+
+/// Rays per walk at most: a longer stream (a chunk from [`crate::BatchOptions::max_chunk`], a
+/// scene's stream) is walked in parts this long. Longer walks share each node and
 /// leaf among more rays, so more of the split and of the leaf tests run eight rays at a time
 /// and fewer rays finish alone; their records outgrow the caches, so the split prefetches them
-/// (`simd::PREFETCH_GROUPS`). Measured with the chunk as long (1M incoherent rays, one thread,
+/// (`simd::PREFETCH_GROUPS`). Measured on octant streams, with the chunk as long (1M incoherent rays, one thread,
 /// closest hit, best of 5 alternated in one process, ms; walks of 64k in chunks of 128k without
 /// the prefetch, then 128k / 256k / 512k / 1M with it): bunny 182.9, 163.6 / 151.7 / 138.5 /
 /// 131.3; fandisk 102.5, 98.9 / 89.9 / 85.2 / 89.7; teapot 80.0, 79.0 / 77.1 / 76.2 / 82.6. Line
@@ -397,14 +417,18 @@ impl<N: NodeKind> Walk<'_, N> {
         }
         #[cfg(target_arch = "x86_64")]
         let (grouped, counts) = match (self.octant_mask, self.avx2) {
-            (mask, Some(avx2)) if mask != 0 => {
+            (mask, Some(avx2)) => {
                 if self.group_bits.len() < ids.len() / 8 {
                     self.group_bits.resize(ids.len() / 8, 0);
                 }
-                let planes = node.stream_planes(mask.trailing_zeros());
+                let planes = node.stream_planes(mask.trailing_zeros() % 8);
                 let bits = &mut *self.group_bits;
-                let used = node.used_slots();
-                super::simd::stream_masks(avx2, (&planes, used), self.rays, ids, bits)
+                let node = (&planes, node.used_slots());
+                if mask == 0 {
+                    super::simd::stream_masks_mixed(avx2, node, self.rays, ids, bits)
+                } else {
+                    super::simd::stream_masks(avx2, node, self.rays, ids, bits)
+                }
             }
             _ => (0, [0; MAX_WIDTH]),
         };
@@ -593,7 +617,8 @@ mod tests {
 
     /// The split's eight-at-a-time box tests and list writes (AVX2) give the same masks,
     /// counts and lists as the one-ray-at-a-time loops, on lists of every length, for nodes of
-    /// four and of eight children; and the one-ray masks are the scalar slab test's.
+    /// four and of eight children, on streams of one octant and of mixed octants; and the
+    /// one-ray masks are the scalar slab test's.
     #[test]
     fn eight_at_a_time_equals_one_at_a_time() {
         let Some(avx2) = Avx2::detect() else {
@@ -613,18 +638,28 @@ mod tests {
         for round in 0..3000 {
             let (node, boxes) = random_node::<N>(&mut rng, 1 + round % N::WIDTH);
             assert_eq!(node.used_slots(), boxes.len());
+            // Odd rounds: a stream of rays of every octant.
+            let mixed = round % 2 == 1;
             let octant = (round % 8) as u32;
             let rays: Vec<PreparedRay> = (0..64)
-                .map(|k| random_ray(&mut rng, octant, boxes[0].min.y, k))
+                .map(|k| {
+                    let octant = if mixed { (k % 8) as u32 } else { octant };
+                    random_ray(&mut rng, octant, boxes[0].min.y, k)
+                })
                 .collect();
-            assert!(rays.iter().all(|r| r.octant_mask == 1 << octant));
+            assert!(mixed || rays.iter().all(|r| r.octant_mask == 1 << octant));
             let n = round % 40;
             let ids: Vec<u32> = (0..n).map(|_| rng.range(0.0, 63.99) as u32).collect();
-            let planes = node.stream_planes(octant);
 
             let mut bits = vec![0u64; n / 8];
-            let (grouped, counts) =
-                simd::stream_masks(avx2, (&planes, node.used_slots()), &rays, &ids, &mut bits);
+            let node_planes = |octant| (node.stream_planes(octant), node.used_slots());
+            let (grouped, counts) = if mixed {
+                let (planes, used) = node_planes(0);
+                simd::stream_masks_mixed(avx2, (&planes, used), &rays, &ids, &mut bits)
+            } else {
+                let (planes, used) = node_planes(octant);
+                simd::stream_masks(avx2, (&planes, used), &rays, &ids, &mut bits)
+            };
             assert_eq!(grouped, n / 8 * 8);
             let mut masks = vec![0u8; n];
             let one_by_one = (&ids[..grouped], &mut masks[..grouped]);
