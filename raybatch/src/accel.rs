@@ -45,10 +45,14 @@ pub trait Accel: Sync + Sized {
     /// [`crate::BatchOptions::ordering`] asks (the default). Structures whose walks take
     /// nothing from the stream's octant (each ray walked alone, in its own order: the grids,
     /// the kd-tree) say `false` and get each chunk as one stream, which keeps rays that start
-    /// near each other together for an order by origin (`crate::batch::origin_order`). So do
-    /// the wide trees, whose split tests each ray against its own octant's planes and gains
-    /// more from long lists than from one child order per stream (`wide::stream::CHUNK`).
+    /// near each other together for an order by origin (`crate::batch::origin_order`).
     const GROUP_BY_OCTANT: bool = true;
+
+    /// Whether the octants holding less than a quarter of a chunk's rays share one stream of
+    /// mixed octants (their octant mask 0) instead of a stream each: for structures whose walk
+    /// tests each ray against its own octant's planes and gains more from long streams than
+    /// from one child order per stream (the wide trees, `wide::stream::CHUNK`).
+    const MIXES_SMALL_OCTANTS: bool = false;
 
     /// The largest chunk a batch is cut into for this structure, unless
     /// [`crate::BatchOptions::max_chunk`] says otherwise: by default its layout's

@@ -64,6 +64,7 @@ impl<A: Accel> Accel for Permuted<A> {
     type Scratch = A::Scratch;
     const STREAM_LAYOUT: StreamLayout = A::STREAM_LAYOUT;
     const GROUP_BY_OCTANT: bool = A::GROUP_BY_OCTANT;
+    const MIXES_SMALL_OCTANTS: bool = A::MIXES_SMALL_OCTANTS;
     const DEFAULT_MAX_CHUNK: usize = A::DEFAULT_MAX_CHUNK;
 
     #[inline]

@@ -2,7 +2,11 @@
 //!
 //! Rays are validated and prepared once, and sorted into 8 groups with a counting sort (one
 //! group when the ordering is [`BatchOrdering::Unordered`]), so that within a group every ray
-//! has the same octant and a node's precomputed child order applies to all of them. Invalid
+//! has the same octant and a node's precomputed child order applies to all of them. A
+//! structure that tests each ray against its own octant's planes (the wide trees) asks for
+//! [`Grouping::LargeOctants`]: the octants that hold a quarter of the chunk keep their groups
+//! (coherent rays, a camera's), the others' rays share one group of mixed octants (incoherent
+//! rays: one long stream rather than eight short ones, `wide::stream::CHUNK`). Invalid
 //! rays get no lane: they miss. Neither do rays that miss the structure's cull box
 //! ([`crate::accel::Accel::cull_bounds`], tested on the prepared ray as the structure's own walk
 //! tests it first): their answer is the blank one of [`Slots::dead`], and a group's lanes end
@@ -27,24 +31,45 @@ use crate::x86::Avx2;
 /// Number of groups: the 8 octants (a single group when unordered).
 pub(crate) const GROUPS: usize = 8;
 
+/// How a chunk's rays are grouped by direction octant.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum Grouping {
+    /// A group per octant ([`BatchOrdering::ByOctant`]).
+    ByOctant,
+    /// A group per octant holding at least a quarter of the chunk's valid rays; the rays of
+    /// the other octants in one group of mixed octants (see the module docs).
+    LargeOctants,
+    /// One group of mixed octants.
+    Unordered,
+}
+
+impl Grouping {
+    /// The grouping for a structure that wants octant groups (`by_octant`), mixing the small
+    /// ones (`mix_small`), under the caller's `ordering`.
+    pub(crate) fn new(ordering: BatchOrdering, by_octant: bool, mix_small: bool) -> Self {
+        match (ordering, by_octant, mix_small) {
+            (BatchOrdering::Unordered, _, _) | (_, false, _) => Grouping::Unordered,
+            (BatchOrdering::ByOctant, true, false) => Grouping::ByOctant,
+            (BatchOrdering::ByOctant, true, true) => Grouping::LargeOctants,
+        }
+    }
+}
+
 /// The groups of a prepared chunk: group `g` is lanes `starts[g]..ends[g]` (`ends[g]` is at
-/// most `starts[g + 1]`: rays culled while preparing leave their slots unused).
+/// most `starts[g + 1]`: rays culled while preparing leave their slots unused), its rays of
+/// the octants of `masks[g]` (one bit: one octant; 0: mixed octants).
 pub(crate) struct Groups {
     starts: [usize; GROUPS + 1],
     ends: [usize; GROUPS],
-    ordering: BatchOrdering,
+    masks: [u8; GROUPS],
 }
 
 impl Groups {
-    /// The non-empty groups as `(start, end, octant_mask)`; the mask is 0 when unordered.
+    /// The non-empty groups as `(start, end, octant_mask)`; the mask is 0 for mixed octants.
     pub(crate) fn iter(&self) -> impl Iterator<Item = (usize, usize, u8)> + '_ {
         (0..GROUPS).filter_map(|g| {
             let (start, end) = (self.starts[g], self.ends[g]);
-            let mask = match self.ordering {
-                BatchOrdering::ByOctant => 1u8 << g,
-                BatchOrdering::Unordered => 0,
-            };
-            (start < end).then_some((start, end, mask))
+            (start < end).then_some((start, end, self.masks[g]))
         })
     }
 }
@@ -53,11 +78,11 @@ impl Groups {
 /// `cull` left out; `keys` is scratch.
 pub(crate) fn prepare(
     rays: &[Ray],
-    (ordering, cull): (BatchOrdering, Option<Aabb>),
+    (grouping, cull): (Grouping, Option<Aabb>),
     lanes: &mut Lanes,
     (keys, slots): (&mut Vec<u8>, &mut Slots),
 ) -> Groups {
-    let starts = group_starts(rays, ordering, keys);
+    let (starts, masks) = group_starts(rays, grouping, keys);
     lanes.reset(starts[GROUPS]);
     let ends = scatter(rays, (keys, slots), (starts, cull), |slot, ray| {
         lanes.set(slot, &ray, slot as u32)
@@ -65,7 +90,7 @@ pub(crate) fn prepare(
     Groups {
         starts,
         ends,
-        ordering,
+        masks,
     }
 }
 
@@ -74,11 +99,11 @@ pub(crate) fn prepare(
 /// copy through a staging array took a quarter of a line-of-sight batch's preparation.
 pub(crate) fn prepare_records(
     rays: &[Ray],
-    (ordering, cull): (BatchOrdering, Option<Aabb>),
+    (grouping, cull): (Grouping, Option<Aabb>),
     out: &mut PreparedRays,
     (keys, slots): (&mut Vec<u8>, &mut Slots),
 ) -> Groups {
-    let starts = group_starts(rays, ordering, keys);
+    let (starts, masks) = group_starts(rays, grouping, keys);
     out.reserve_slots(starts[GROUPS]);
     let mut placer = Placer::new(slots, starts, rays.len());
     #[cfg_attr(not(target_arch = "x86_64"), allow(unused_mut))]
@@ -93,7 +118,7 @@ pub(crate) fn prepare_records(
     Groups {
         starts,
         ends: placer.next,
-        ordering,
+        masks,
     }
 }
 
@@ -218,10 +243,14 @@ fn scatter_rest(
     }
 }
 
-/// Pass 1 of the counting sort: each ray's group into `keys` (`GROUPS` for an invalid ray)
-/// and where each group starts. Eight rays at a time with AVX2 (the same keys).
-fn group_starts(rays: &[Ray], ordering: BatchOrdering, keys: &mut Vec<u8>) -> [usize; GROUPS + 1] {
-    let by_octant = matches!(ordering, BatchOrdering::ByOctant);
+/// Pass 1 of the counting sort: each ray's group into `keys` (`GROUPS` for an invalid ray),
+/// where each group starts and its octant mask. Eight rays at a time with AVX2 (the same keys).
+fn group_starts(
+    rays: &[Ray],
+    grouping: Grouping,
+    keys: &mut Vec<u8>,
+) -> ([usize; GROUPS + 1], [u8; GROUPS]) {
+    let by_octant = grouping != Grouping::Unordered;
     keys.clear();
     keys.resize(rays.len(), 0);
     // Rays done eight at a time (none without AVX2).
@@ -246,11 +275,39 @@ fn group_starts(rays: &[Ray], ordering: BatchOrdering, keys: &mut Vec<u8>) -> [u
     for &key in keys.iter() {
         counts[key as usize] += 1;
     }
+    let mut masks = std::array::from_fn(|g| if by_octant { 1u8 << g } else { 0 });
+    if grouping == Grouping::LargeOctants {
+        mix_small_octants(keys, &mut counts, &mut masks);
+    }
     let mut starts = [0usize; GROUPS + 1];
     for g in 0..GROUPS {
         starts[g + 1] = starts[g] + counts[g];
     }
-    starts
+    (starts, masks)
+}
+
+/// [`Grouping::LargeOctants`]: moves the rays of the octants holding less than a quarter of
+/// the valid rays (if there are two such octants or more) into the group of the first of them,
+/// whose mask becomes 0, and counts them there.
+fn mix_small_octants(keys: &mut [u8], counts: &mut [usize; GROUPS + 1], masks: &mut [u8; GROUPS]) {
+    let valid: usize = counts[..GROUPS].iter().sum();
+    let small = |g: usize| counts[g] > 0 && 4 * counts[g] < valid;
+    let mut into: [u8; GROUPS + 1] = std::array::from_fn(|g| g as u8);
+    let mut mixed = None;
+    for g in (0..GROUPS).filter(|&g| small(g)) {
+        into[g] = *mixed.get_or_insert(g) as u8;
+    }
+    let Some(mixed) = mixed.filter(|&m| (0..GROUPS).any(|g| g != m && into[g] as usize == m))
+    else {
+        return;
+    };
+    for key in keys.iter_mut() {
+        *key = into[*key as usize];
+    }
+    for g in (0..GROUPS).filter(|&g| g != mixed && into[g] as usize == mixed) {
+        counts[mixed] += std::mem::take(&mut counts[g]);
+    }
+    masks[mixed] = 0;
 }
 
 #[cfg(test)]
@@ -280,7 +337,7 @@ mod tests {
             .collect();
         let mut out = PreparedRays::default();
         let (mut keys, mut slots) = (Vec::new(), Slots::default());
-        let cull = (BatchOrdering::ByOctant, Some(bounds));
+        let cull = (Grouping::ByOctant, Some(bounds));
         let groups = prepare_records(&rays, cull, &mut out, (&mut keys, &mut slots));
         let dead = slots.dead() as u32;
         let mut kept = 0;
@@ -306,5 +363,77 @@ mod tests {
         let in_groups: usize = groups.iter().map(|(start, end, _)| end - start).sum();
         assert_eq!(in_groups, kept);
         assert!(kept > 100 && rays.len() - kept > 100, "{kept} kept");
+    }
+
+    /// [`Grouping::LargeOctants`]: an octant holding a quarter of the valid rays or more keeps
+    /// its group and mask; the rays of the others share one group of mask 0 (unless only one
+    /// octant is small: it keeps its own); every valid ray lies in one group, invalid ones in
+    /// none.
+    #[test]
+    fn small_octants_share_one_mixed_group() {
+        let mut rng = TestRng::new(9);
+        // Directions of octant `o`: signs from its bits, some components zero (-0.0 counts as
+        // negative).
+        let dir = |rng: &mut TestRng, o: u32| {
+            let mut d = rng.vec3(1.0).abs() + Vec3::splat(0.1);
+            if rng.range(0.0, 1.0) < 0.1 {
+                d.y = 0.0;
+            }
+            Vec3::from_array(std::array::from_fn(|a| {
+                if o >> a & 1 == 1 { -d[a] } else { d[a] }
+            }))
+        };
+        // Shares of the octants (out of 100), and the groups expected: (mask, share).
+        let cases: [(&[(u32, usize)], &[(u8, usize)]); 4] = [
+            (
+                &[
+                    (0, 13),
+                    (1, 13),
+                    (2, 12),
+                    (3, 12),
+                    (4, 13),
+                    (5, 12),
+                    (6, 13),
+                    (7, 12),
+                ],
+                &[(0, 100)],
+            ),
+            (&[(5, 97), (6, 3)], &[(1 << 5, 97), (1 << 6, 3)]),
+            (
+                &[(7, 60), (1, 20), (2, 10), (3, 10)],
+                &[(1 << 7, 60), (0, 40)],
+            ),
+            (
+                &[(0, 25), (4, 25), (2, 50)],
+                &[(1, 25), (1 << 4, 25), (1 << 2, 50)],
+            ),
+        ];
+        for (shares, expected) in cases {
+            let mut rays: Vec<Ray> = Vec::new();
+            for &(octant, share) in shares {
+                for _ in 0..share * 10 {
+                    rays.push(Ray::new(rng.vec3(3.0), dir(&mut rng, octant)));
+                }
+            }
+            rays.push(Ray::new(Vec3::ZERO, Vec3::ZERO));
+            let mut out = PreparedRays::default();
+            let (mut keys, mut slots) = (Vec::new(), Slots::default());
+            let grouping = (Grouping::LargeOctants, None);
+            let groups = prepare_records(&rays, grouping, &mut out, (&mut keys, &mut slots));
+            let mut found: Vec<(u8, usize)> = groups
+                .iter()
+                .map(|(start, end, mask)| (mask, (end - start) / 10))
+                .collect();
+            found.sort_by_key(|&(mask, _)| mask);
+            let mut expected = expected.to_vec();
+            expected.sort_by_key(|&(mask, _)| mask);
+            assert_eq!(found, expected, "shares {shares:?}");
+            for (start, end, mask) in groups.iter() {
+                for ray in &out.rays[start..end] {
+                    assert!(mask == 0 || mask == ray.octant_mask, "mask {mask}");
+                }
+            }
+            assert_eq!(slots.of_position[rays.len() - 1], Slots::NONE);
+        }
     }
 }

@@ -65,8 +65,9 @@ pub struct BatchOptions {
     /// The ray/triangle kernel.
     pub kernel: Kernel,
     /// How rays are grouped by direction. Structures that walk each ray alone (grids, the
-    /// kd-tree) or test each ray against its own octant's planes (the wide trees:
-    /// `Accel::GROUP_BY_OCTANT` is false) always get one group.
+    /// kd-tree: `Accel::GROUP_BY_OCTANT` is false) always get one group; the wide trees get
+    /// the octants that hold a quarter of a chunk as their own groups and the others' rays in
+    /// one (`Accel::MIXES_SMALL_OCTANTS`).
     pub ordering: BatchOrdering,
     /// Split large batches over rayon's current thread pool (on the calling thread if no thread
     /// can be started).

@@ -14,8 +14,8 @@
 
 use crate::accel::{Accel, RayStream, Storage, StreamLayout};
 use crate::batch::chunks::for_each_chunk;
-use crate::batch::group::{self, Groups, Slots};
-use crate::batch::options::{BatchOptions, BatchOrdering};
+use crate::batch::group::{self, Grouping, Groups, Slots};
+use crate::batch::options::BatchOptions;
 use crate::batch::partition::Partitioner;
 use crate::batch::scratch::BatchScratch;
 use crate::geom::{Aabb, Kernel, MollerTrumbore, Ray, Watertight};
@@ -118,19 +118,15 @@ fn with_chunk<A: Accel, R>(
             occluded,
             keys,
         } = batch;
-        let grouping = (&mut *keys, &mut *slots);
-        let ordering = if A::GROUP_BY_OCTANT {
-            options.ordering
-        } else {
-            BatchOrdering::Unordered
-        };
+        let sorting = (&mut *keys, &mut *slots);
+        let grouping = Grouping::new(options.ordering, A::GROUP_BY_OCTANT, A::MIXES_SMALL_OCTANTS);
         let (groups, storage) = match A::STREAM_LAYOUT {
             StreamLayout::Lanes => (
-                group::prepare(rays, (ordering, cull), lanes, grouping),
+                group::prepare(rays, (grouping, cull), lanes, sorting),
                 Storage::Lanes(lanes),
             ),
             StreamLayout::Records => (
-                group::prepare_records(rays, (ordering, cull), records, grouping),
+                group::prepare_records(rays, (grouping, cull), records, sorting),
                 Storage::Records(records),
             ),
         };

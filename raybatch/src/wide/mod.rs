@@ -171,9 +171,9 @@ pub struct WideScratch {
 
 impl<N: NodeKind> Accel for WideBvh<N> {
     type Scratch = WideScratch;
-    /// A chunk is one stream of rays of every octant, shorter than other structures' chunks
-    /// (see [`stream::CHUNK`]).
-    const GROUP_BY_OCTANT: bool = false;
+    /// A chunk's small octant groups are one stream of mixed octants, and chunks are shorter
+    /// than other structures' (see [`stream::CHUNK`]).
+    const MIXES_SMALL_OCTANTS: bool = true;
     const DEFAULT_MAX_CHUNK: usize = stream::CHUNK;
 
     /// The root box, which the one-ray loop tests before anything else.

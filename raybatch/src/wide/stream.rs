@@ -3,8 +3,8 @@
 //!
 //! The rays are the batch's prepared records (one cache line each, holding the ray's current
 //! range end: the tree asks for [`crate::accel::StreamLayout::Records`]), walked in place; a
-//! stream in lanes (from a scene) is copied out first. A batch's chunk is one stream of rays
-//! of every direction octant ([`CHUNK`] says why); a scene's stream holds one octant. The walk
+//! stream in lanes (from a scene) is copied out first. A stream holds rays of one direction
+//! octant, or of several (the octants that hold few of a chunk's rays, [`CHUNK`] says why). The walk
 //! moves only 4-byte ray indices. At a node reached by a list of rays, eight rays at a time
 //! test each child box (AVX2; each ray against its own octant's planes, or, in a stream of one
 //! octant, the planes picked once per node; the node's one-ray test for the rest) and each
@@ -183,22 +183,30 @@ fn trace_blocks<N: NodeKind, K: TriangleTest, V: Visitor>(
     }
 }
 
-/// The wide trees' default chunk ([`crate::accel::Accel::DEFAULT_MAX_CHUNK`]), walked as one
-/// stream of rays of every octant (`Accel::GROUP_BY_OCTANT` is false for them: the split tests
-/// each ray against its own octant's planes, `simd::stream_masks_mixed`). A call's rays used to
-/// be grouped into eight octant streams, so that the split could pick one octant's planes per
-/// node and push the child lists in that octant's order; but a call of 4,096 rays then made
-/// streams of about 512, which the walk left to the one-ray loop after two or three levels,
-/// and a large call walked 1M records (64 MiB) out of the caches. One stream per chunk keeps
-/// lists eight times as long for the same records, at the price of child lists pushed in slot
-/// order (no octant order for a mix of octants). Measured on an AMD EPYC (1 MiB of L2), one
-/// thread, incoherent rays, closest hit, every variant alternated in one process, best of 5,
-/// time against octant streams (1M-ray chunks): one mixed stream per call of 4,096 rays 0.90
-/// / 0.74 / 0.96 (fandisk / teapot / bunny), 16,384 0.73 / 0.73 / 0.91, 65,536 0.71 / 0.76 /
-/// 0.69; 1M rays in one call, mixed chunks of 32k 0.91 / 0.83 / 1.10, **64k 0.85 / 0.79 /
-/// 0.94**, 128k 0.99 / 0.96 / 0.94, 256k 1.25 / 1.24 / 1.04, 1M 1.59 / 1.69 / 1.45 (a long
-/// mixed walk reads its records out of the caches). Line-of-sight segments, any hit: 4,096
-/// 0.84 / 0.83 / 0.83; 1M in chunks of 64k 0.86 / 0.86 / 1.01, 128k 0.91 / 0.81 / 0.92.
+/// The wide trees' default chunk ([`crate::accel::Accel::DEFAULT_MAX_CHUNK`]), in which the
+/// octants holding less than a quarter of the rays share one stream of mixed octants
+/// (`Accel::MIXES_SMALL_OCTANTS`: the split tests each ray against its own octant's planes,
+/// `simd::stream_masks_mixed`, and pushes child lists in slot order).
+///
+/// A call's rays used to be grouped into eight octant streams, so that the split could pick
+/// one octant's planes per node and push the child lists in that octant's order; but
+/// incoherent rays then made eight short streams (about 512 rays for a call of 4,096, which
+/// the walk left to the one-ray loop after two or three levels), and a large call walked 1M
+/// records (64 MiB) out of the caches. One stream keeps lists eight times as long for the
+/// same records. Measured on an AMD EPYC (1 MiB of L2), one thread, every variant alternated
+/// in one process, best of 5, time against octant streams of 1M-ray chunks (fandisk / teapot
+/// / bunny): incoherent rays, closest hit, one mixed stream per call of 4,096 rays 0.90 / 0.74
+/// / 0.96, 16,384 0.73 / 0.73 / 0.91, 65,536 0.71 / 0.76 / 0.69; 1M rays in one call, mixed
+/// chunks of 32k 0.91 / 0.83 / 1.10, **64k 0.85 / 0.79 / 0.94**, 128k 0.99 / 0.96 / 0.94,
+/// 256k 1.25 / 1.24 / 1.04, 1M 1.59 / 1.69 / 1.45 (a long mixed walk reads its records out of
+/// the caches). Line-of-sight segments, any hit: 4,096 0.84 / 0.83 / 0.83; 1M in chunks of
+/// 64k 0.86 / 0.86 / 1.01, 128k 0.91 / 0.81 / 0.92.
+///
+/// Coherent rays keep their octant streams: a camera's 1M rays (a chunk of 64k holds one or
+/// two octants) walked as mixed streams took 1.59 / 1.63x (fandisk / bunny) the time of
+/// octant streams of the same 64k chunks, whose child lists come in the right order for
+/// every ray; those octant streams took 0.61 / 0.60x the time of the octant streams of 1M-ray
+/// chunks.
 pub(crate) const CHUNK: usize = 1 << 16;
 
 /// Rays per walk at most: a longer stream (a chunk from [`crate::BatchOptions::max_chunk`], a
