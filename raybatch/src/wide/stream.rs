@@ -19,10 +19,13 @@
 //! with the one-ray loop.
 //!
 //! Eight children per node (`WideTree8`) take a third fewer levels but test more boxes per ray
-//! and level: the same engine over the 8-wide tree ran 0.88-0.99x the 4-wide tree's (1M
-//! rays, one thread, alternated in one process, best of 5: fandisk and bunny, closest hit on
-//! incoherent rays and any hit on line-of-sight segments), so the 4-wide tree stays the batched
-//! default.
+//! and level: the same engine over the 8-wide tree ran 0.88-0.99x the 4-wide tree's speed on
+//! octant streams (1M rays, one thread, alternated in one process, best of 5: fandisk and
+//! bunny, closest hit on incoherent rays and any hit on line-of-sight segments). Since small
+//! octants share a stream, it takes 0.94 / 0.96 / 0.99x the 4-wide tree's time on 1M
+//! incoherent rays (fandisk / teapot / bunny; 0.94 / 0.99 / 0.77x in calls of 4,096), but
+//! 0.98-1.05x on line-of-sight segments and 1.01-1.13x on camera rays (500k rays, best of 5),
+//! so the 4-wide tree stays the batched default.
 //!
 //! The index lists live in one buffer used as a stack: a node's child lists are written above
 //! everything pending, and popping a list moves the buffer's logical end back to where its
