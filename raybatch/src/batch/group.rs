@@ -383,8 +383,11 @@ mod tests {
                 if o >> a & 1 == 1 { -d[a] } else { d[a] }
             }))
         };
-        // Shares of the octants (out of 100), and the groups expected: (mask, share).
-        let cases: [(&[(u32, usize)], &[(u8, usize)]); 4] = [
+        // Shares of the octants (out of 100): (octant, share); and the groups expected: (mask,
+        // share).
+        type Shares = &'static [(u32, usize)];
+        type Expected = &'static [(u8, usize)];
+        let cases: [(Shares, Expected); 4] = [
             (
                 &[
                     (0, 13),

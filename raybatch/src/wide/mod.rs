@@ -172,7 +172,7 @@ pub struct WideScratch {
 impl<N: NodeKind> Accel for WideBvh<N> {
     type Scratch = WideScratch;
     /// A chunk's small octant groups are one stream of mixed octants, and chunks are shorter
-    /// than other structures' (see [`stream::CHUNK`]).
+    /// than other structures' (see `wide::stream::CHUNK`).
     const MIXES_SMALL_OCTANTS: bool = true;
     const DEFAULT_MAX_CHUNK: usize = stream::CHUNK;
 
