@@ -56,8 +56,8 @@ pub trait Accel: Sync + Sized {
 
     /// The largest chunk a batch is cut into for this structure, unless
     /// [`crate::BatchOptions::max_chunk`] says otherwise: by default its layout's
-    /// ([`StreamLayout::default_max_chunk`]). The wide trees, whose chunk is one stream of
-    /// every octant, walk shorter chunks fastest (`wide::stream::CHUNK`).
+    /// ([`StreamLayout::default_max_chunk`]). The wide trees, which walk a chunk's incoherent
+    /// rays as one stream, are fastest on shorter chunks (`wide::stream::CHUNK`).
     const DEFAULT_MAX_CHUNK: usize = Self::STREAM_LAYOUT.default_max_chunk();
 
     /// Reports to `visitor`, as ray number `id`, every hit of `ray` with kernel `K` in
@@ -139,9 +139,10 @@ pub enum StreamLayout {
 
 impl StreamLayout {
     /// The largest chunk a batch is cut into for a structure of this layout, unless
-    /// [`crate::BatchOptions::max_chunk`] says otherwise. Records are never moved, so a walk
-    /// of index lists gains from every extra ray sharing its nodes and leaves: 1,048,576
-    /// (measurements at [`crate::BatchOptions::max_chunk`]). Lanes move whole rays at every
+    /// [`crate::BatchOptions::max_chunk`] says otherwise (a structure may choose its own,
+    /// [`Accel::DEFAULT_MAX_CHUNK`]). Records are never moved, so the grids' and kd-tree's
+    /// walks, one ray at a time in an order by origin, take chunks of 1,048,576 (the wide
+    /// trees' index lists walk faster in chunks of 64k, `wide::stream::CHUNK`). Lanes move whole rays at every
     /// node, and their partitions run faster on chunks that stay nearer the caches: 131,072
     /// (1M-ray chunks were slower: fandisk, 1M incoherent rays, one thread, closest hit
     /// batched, best of 2 x 3 passes: binary tree 309 -> 372 ms, quantized 317 -> 378, hybrid
@@ -177,8 +178,9 @@ impl Storage<'_> {
 /// partition moves them without pointer chasing, or as one record per ray.
 ///
 /// Ray `i` (for `i < len()`) has a position in the caller's batch ([`RayStream::id`]) and a
-/// current range end ([`RayStream::tmax`]). When the batch was grouped by direction octant, all
-/// rays share one octant and [`RayStream::octant_mask`] is non-zero.
+/// current range end ([`RayStream::tmax`]). If [`RayStream::octant_mask`] is non-zero, all
+/// rays share that octant; if it is 0 their octants differ (an unordered batch, a structure
+/// that walks one stream per chunk, or the small octants a wide tree's chunk mixes).
 pub struct RayStream<'a> {
     pub(crate) storage: Storage<'a>,
     pub(crate) start: usize,

@@ -291,21 +291,22 @@ fn group_starts(
 /// whose mask becomes 0, and counts them there.
 fn mix_small_octants(keys: &mut [u8], counts: &mut [usize; GROUPS + 1], masks: &mut [u8; GROUPS]) {
     let valid: usize = counts[..GROUPS].iter().sum();
-    let small = |g: usize| counts[g] > 0 && 4 * counts[g] < valid;
-    let mut into: [u8; GROUPS + 1] = std::array::from_fn(|g| g as u8);
-    let mut mixed = None;
-    for g in (0..GROUPS).filter(|&g| small(g)) {
-        into[g] = *mixed.get_or_insert(g) as u8;
-    }
-    let Some(mixed) = mixed.filter(|&m| (0..GROUPS).any(|g| g != m && into[g] as usize == m))
-    else {
+    let small: Vec<usize> = (0..GROUPS)
+        .filter(|&g| counts[g] > 0 && 4 * counts[g] < valid)
+        .collect();
+    let [mixed, ..] = small[..] else { return };
+    if small.len() < 2 {
         return;
-    };
-    for key in keys.iter_mut() {
-        *key = into[*key as usize];
     }
-    for g in (0..GROUPS).filter(|&g| g != mixed && into[g] as usize == mixed) {
+    // Each key's new group: the mixed one for a small octant, its own otherwise (invalid rays
+    // keep key `GROUPS`).
+    let mut new_key: [u8; GROUPS + 1] = std::array::from_fn(|g| g as u8);
+    for &g in &small[1..] {
+        new_key[g] = mixed as u8;
         counts[mixed] += std::mem::take(&mut counts[g]);
+    }
+    for key in keys.iter_mut() {
+        *key = new_key[*key as usize];
     }
     masks[mixed] = 0;
 }
@@ -425,17 +426,27 @@ mod tests {
             let groups = prepare_records(&rays, grouping, &mut out, (&mut keys, &mut slots));
             let mut found: Vec<(u8, usize)> = groups
                 .iter()
-                .map(|(start, end, mask)| (mask, (end - start) / 10))
+                .map(|(start, end, mask)| (mask, end - start))
                 .collect();
             found.sort_by_key(|&(mask, _)| mask);
-            let mut expected = expected.to_vec();
+            let mut expected: Vec<(u8, usize)> = expected
+                .iter()
+                .map(|&(mask, share)| (mask, share * 10))
+                .collect();
             expected.sort_by_key(|&(mask, _)| mask);
             assert_eq!(found, expected, "shares {shares:?}");
+            // Every valid ray in one slot of one group, its own record there.
+            let mut seen = vec![false; rays.len()];
             for (start, end, mask) in groups.iter() {
-                for ray in &out.rays[start..end] {
+                for slot in start..end {
+                    let (id, ray) = (slots.positions[slot] as usize, &out.rays[slot]);
+                    assert!(!std::mem::replace(&mut seen[id], true), "ray {id} twice");
+                    assert_eq!(slots.of_position[id] as usize, slot);
+                    assert_eq!(ray.origin, rays[id].origin);
                     assert!(mask == 0 || mask == ray.octant_mask, "mask {mask}");
                 }
             }
+            assert_eq!(seen.iter().filter(|&&s| s).count(), rays.len() - 1);
             assert_eq!(slots.of_position[rays.len() - 1], Slots::NONE);
         }
     }

@@ -7,7 +7,9 @@ use super::partition::PartitionKernel;
 /// How rays of one batch are grouped so that node ordering applies.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 pub enum BatchOrdering {
-    /// Group by direction octant and use each node's precomputed order (the default).
+    /// Group by direction octant and use each node's precomputed order (the default; the
+    /// wide trees keep only the octants holding a quarter of a chunk apart and walk the
+    /// others' rays together, `Accel::MIXES_SMALL_OCTANTS`).
     #[default]
     ByOctant,
     /// One group for all directions, children in fixed order.
@@ -34,8 +36,7 @@ impl BatchOrdering {
 pub enum Interleave {
     /// The structure decides by its size: the 4-wide tree interleaves when its nodes, leaf
     /// order and mesh pass 16 MiB, where waiting on memory dominates, and for streams of
-    /// fewer than 2,048 rays (calls of a few thousand rays) once they pass 8 MiB, where few
-    /// rays share each node.
+    /// fewer than 2,048 rays once they pass 8 MiB, where few rays share each node.
     #[default]
     Auto,
     /// Always walk rays side by side.
@@ -79,8 +80,8 @@ pub struct BatchOptions {
     /// Smallest chunk handed to one rayon task.
     pub min_chunk: usize,
     /// Largest chunk traversed as one batch; `None` (the default) leaves it to the structure
-    /// ([`crate::accel::Accel::DEFAULT_MAX_CHUNK`]: 65,536 rays for the wide trees, walked as
-    /// one stream of every octant; 1,048,576 for the grids and kd-tree, which take one ray at
+    /// ([`crate::accel::Accel::DEFAULT_MAX_CHUNK`]: 65,536 rays for the wide trees, whose
+    /// chunks walk incoherent rays as one stream; 1,048,576 for the grids and kd-tree, which take one ray at
     /// a time; 131,072 for the binary trees, which move lanes and walk a stream per direction
     /// octant). Bigger chunks share each node and leaf among more rays; smaller ones keep their
     /// rays' records (64 bytes a ray) in the caches: the measured sweep is at

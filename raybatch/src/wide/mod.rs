@@ -221,9 +221,9 @@ const INTERLEAVE_ABOVE_BYTES: usize = 16 << 20;
 
 /// Streams shorter than this share few node fetches, so [`Interleave::Auto`] interleaves them
 /// from the smaller working set [`SHORT_INTERLEAVE_ABOVE_BYTES`] on. (Measured when a call of
-/// 4,096 rays made eight octant streams of about 512; it now makes one stream of 4,096
-/// ([`stream::CHUNK`]), so only a scene's octant streams and calls under 2,048 rays, which
-/// [`crate::BatchOptions::min_batch`] sends one ray at a time, are this short.) Measured on an Intel Xeon (2 MiB of L2 per core),
+/// 4,096 incoherent rays made eight octant streams of about 512; it now makes one stream of
+/// 4,096 ([`stream::CHUNK`]). Streams this short are now a scene's octant streams, an octant
+/// kept apart in a small call, and the last chunks of a batch split over threads.) Measured on an Intel Xeon (2 MiB of L2 per core),
 /// one thread, 1M incoherent rays in calls of N rays, side by side vs nodes shared, best of
 /// 2 x 3 passes (`raybatch query --batched --batch-size N --interleave always|never`, ms):
 /// bunny (3.9 MB) N = 4,096: 172 vs 205 (line-of-sight any hit 82 vs 93), 16,384: 176 vs 183,
