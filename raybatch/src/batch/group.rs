@@ -291,17 +291,18 @@ fn group_starts(
 /// whose mask becomes 0, and counts them there.
 fn mix_small_octants(keys: &mut [u8], counts: &mut [usize; GROUPS + 1], masks: &mut [u8; GROUPS]) {
     let valid: usize = counts[..GROUPS].iter().sum();
-    let small: Vec<usize> = (0..GROUPS)
+    // One bit per small octant (no allocation: this runs once per chunk, per call).
+    let small = (0..GROUPS)
         .filter(|&g| counts[g] > 0 && 4 * counts[g] < valid)
-        .collect();
-    let [mixed, ..] = small[..] else { return };
-    if small.len() < 2 {
+        .fold(0u32, |bits, g| bits | 1 << g);
+    if small.count_ones() < 2 {
         return;
     }
+    let mixed = small.trailing_zeros() as usize;
     // Each key's new group: the mixed one for a small octant, its own otherwise (invalid rays
     // keep key `GROUPS`).
     let mut new_key: [u8; GROUPS + 1] = std::array::from_fn(|g| g as u8);
-    for &g in &small[1..] {
+    for g in (mixed + 1..GROUPS).filter(|&g| small >> g & 1 == 1) {
         new_key[g] = mixed as u8;
         counts[mixed] += std::mem::take(&mut counts[g]);
     }

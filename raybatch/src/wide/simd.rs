@@ -5,9 +5,9 @@
 //!   [`super::node::WideRay::slabs_portable`] (compared by `node::tests`);
 //! - [`slabs8`]: one ray against an 8-wide node's eight boxes with AVX2, twin of
 //!   [`WideNode8::hits_by_halves`] (compared by `node8::tests`);
-//! - [`stream_masks`]: eight rays of one octant at a time against each box with AVX2, for the
-//!   stream split, and [`stream_masks_mixed`], eight rays of any octants, twins of its one-ray
-//!   loop (compared by `stream::tests`).
+//! - [`stream_masks`]: eight rays at a time (of one octant, or of mixed octants) against each
+//!   box with AVX2, for the stream split, twin of its one-ray loop (compared by
+//!   `stream::tests`).
 //!
 //! The leaves' eight-ray sign filter is `geom::sign_filter::RayOctet`, shared with the binary
 //! trees' stream engine.
@@ -104,10 +104,15 @@ unsafe fn slabs8_avx2(ray: &WideRay, node: &WideNode8, tmax: f32) -> (u32, [f32;
 
 /// The stream split's box tests eight rays at a time, twin of its one-ray-at-a-time loop
 /// (`stream::masks_one_by_one`, compared by `stream::tests`): for the first `8 * (ids.len() / 8)`
-/// rays of `ids` (indices into `rays`, all of the octant `planes` were picked for), against
-/// the node's first `width` children, writes one `u64` per eight rays to `group_bits` (byte
-/// `k`: which of the eight enter child `k`) and returns how many rays that was and the number
-/// entering each child.
+/// rays of `ids` (indices into `rays`), against the node's first `width` children, writes one
+/// `u64` per eight rays to `group_bits` (byte `k`: which of the eight enter child `k`) and
+/// returns how many rays that was and the number entering each child.
+///
+/// `octant_mask` is the stream's: one bit if all its rays share that octant, whose `planes`
+/// the caller picked; 0 for rays of mixed octants, with the node's octant-0 planes (near the
+/// box's minimum, far its maximum), which each lane swaps where its inverse direction is
+/// negative (its sign bit: the ray's octant bit, `-0.0` included), picking exactly the planes
+/// the ray's own octant would.
 ///
 /// Lane `j` computes exactly what the one-ray box test ([`WideRay::hits_planes`], or the 8-wide
 /// node's) computes for ray `j`, one child at a time: the same subtractions and products in the
@@ -116,29 +121,20 @@ unsafe fn slabs8_avx2(ray: &WideRay, node: &WideNode8, tmax: f32) -> (u32, [f32;
 #[inline(always)]
 pub(crate) fn stream_masks(
     _: Avx2,
-    (planes, width): (&StreamPlanes, usize),
+    (planes, width, octant_mask): (&StreamPlanes, usize, u8),
     rays: &[PreparedRay],
     ids: &[u32],
     group_bits: &mut [u64],
 ) -> (usize, [u32; 8]) {
+    let node = (planes, width.min(8));
     // SAFETY: an `Avx2` exists only if the CPU has AVX2.
-    unsafe { stream_masks_avx2::<false>((planes, width.min(8)), rays, ids, group_bits) }
-}
-
-/// [`stream_masks`] for rays of any octants: `planes` are the node's octant-0 planes (near is
-/// the box's minimum, far its maximum), and each lane swaps them where its inverse direction
-/// is negative (its sign bit: the ray's octant bit, `-0.0` included), which picks exactly the
-/// planes the ray's own octant would.
-#[inline(always)]
-pub(crate) fn stream_masks_mixed(
-    _: Avx2,
-    (planes, width): (&StreamPlanes, usize),
-    rays: &[PreparedRay],
-    ids: &[u32],
-    group_bits: &mut [u64],
-) -> (usize, [u32; 8]) {
-    // SAFETY: an `Avx2` exists only if the CPU has AVX2.
-    unsafe { stream_masks_avx2::<true>((planes, width.min(8)), rays, ids, group_bits) }
+    unsafe {
+        if octant_mask == 0 {
+            stream_masks_avx2::<true>(node, rays, ids, group_bits)
+        } else {
+            stream_masks_avx2::<false>(node, rays, ids, group_bits)
+        }
+    }
 }
 
 /// See [`stream_masks`].

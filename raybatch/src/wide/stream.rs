@@ -189,7 +189,7 @@ fn trace_blocks<N: NodeKind, K: TriangleTest, V: Visitor>(
 /// The wide trees' default chunk ([`crate::accel::Accel::DEFAULT_MAX_CHUNK`]), in which the
 /// octants holding less than a quarter of the rays share one stream of mixed octants
 /// (`Accel::MIXES_SMALL_OCTANTS`: the split tests each ray against its own octant's planes,
-/// `simd::stream_masks_mixed`, and pushes child lists in slot order).
+/// `simd::stream_masks`, and pushes child lists in slot order).
 ///
 /// A call's rays used to be grouped into eight octant streams, so that the split could pick
 /// one octant's planes per node and push the child lists in that octant's order; but
@@ -420,7 +420,7 @@ impl<N: NodeKind> Walk<'_, N> {
     /// masks are in `group_bits` (one `u64` per eight rays, one byte per child, one bit per
     /// ray); the others' masks are in `masks[grouped..end - start]` (one byte per ray, one bit
     /// per child). Eight at a time, a stream of one octant takes the planes picked once for
-    /// it; a stream of mixed octants, each ray's own (`simd::stream_masks_mixed`).
+    /// it; a stream of mixed octants, each ray's own (`simd::stream_masks`).
     #[inline(always)]
     fn child_masks(&mut self, node: &N, start: usize, end: usize) -> (usize, [u32; MAX_WIDTH]) {
         let ids = &self.ids[start..end];
@@ -433,14 +433,10 @@ impl<N: NodeKind> Walk<'_, N> {
                 if self.group_bits.len() < ids.len() / 8 {
                     self.group_bits.resize(ids.len() / 8, 0);
                 }
-                let planes = node.stream_planes(mask.trailing_zeros() % 8);
+                let planes = node.stream_planes(planes_octant(mask));
                 let bits = &mut *self.group_bits;
-                let node = (&planes, node.used_slots());
-                if mask == 0 {
-                    super::simd::stream_masks_mixed(avx2, node, self.rays, ids, bits)
-                } else {
-                    super::simd::stream_masks(avx2, node, self.rays, ids, bits)
-                }
+                let node = (&planes, node.used_slots(), mask);
+                super::simd::stream_masks(avx2, node, self.rays, ids, bits)
             }
             _ => (0, [0; MAX_WIDTH]),
         };
@@ -561,6 +557,14 @@ fn masks_one_by_one<N: NodeKind>(
     counts
 }
 
+/// The octant whose planes the eight-at-a-time split is given for a stream of octant mask
+/// `mask`: its octant, or for mixed octants (mask 0) octant 0, whose planes each lane swaps
+/// by its own signs (`simd::stream_masks`).
+#[cfg_attr(not(target_arch = "x86_64"), allow(dead_code))]
+fn planes_octant(mask: u8) -> u32 {
+    if mask == 0 { 0 } else { mask.trailing_zeros() }
+}
+
 /// Slots after each child list for the writes past its end: eight rays are written at once.
 const SPARE: usize = 8;
 
@@ -667,14 +671,10 @@ mod tests {
             let ids: Vec<u32> = (0..n).map(|_| rng.range(0.0, 63.99) as u32).collect();
 
             let mut bits = vec![0u64; n / 8];
-            let node_planes = |octant| (node.stream_planes(octant), node.used_slots());
-            let (grouped, counts) = if mixed {
-                let (planes, used) = node_planes(0);
-                simd::stream_masks_mixed(avx2, (&planes, used), &rays, &ids, &mut bits)
-            } else {
-                let (planes, used) = node_planes(octant);
-                simd::stream_masks(avx2, (&planes, used), &rays, &ids, &mut bits)
-            };
+            let mask = if mixed { 0 } else { 1 << octant };
+            let planes = node.stream_planes(planes_octant(mask));
+            let node_planes = (&planes, node.used_slots(), mask);
+            let (grouped, counts) = simd::stream_masks(avx2, node_planes, &rays, &ids, &mut bits);
             assert_eq!(grouped, n / 8 * 8);
             let mut masks = vec![0u8; n];
             let one_by_one = (&ids[..grouped], &mut masks[..grouped]);
