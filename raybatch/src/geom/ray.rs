@@ -7,7 +7,7 @@
 //! Queries never panic on a bad ray: a ray whose origin or direction is NaN or infinite, whose
 //! direction is zero, or whose range is empty or NaN misses everything. [`Ray::validate`] says why.
 
-use glam::{Vec3, Vec3A};
+use glam::{BVec3A, Vec3, Vec3A, Vec3Swizzles};
 
 /// A ray `origin + t * dir` for `t` in `[tmin, tmax]`.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -116,6 +116,7 @@ impl Ray {
 }
 
 /// Replaces subnormal components (and -0) by +0 or -0 of the same sign: `1 / x` must not overflow.
+#[inline]
 pub(crate) fn flush_subnormals(v: Vec3) -> Vec3 {
     // Lane-wise: a NaN compares false and is kept, as the scalar rule would keep it.
     let v = Vec3A::from(v);
@@ -209,11 +210,14 @@ impl PreparedRay {
         // Woop et al. swap kx and ky when dir[kz] < 0 to keep the projected winding; since both
         // windings are accepted, that swap only negates U, V, W, det and T exactly, leaving
         // t, u, v bit-identical, so it is skipped and the axes depend on kz alone.
-        // (kx, ky, kz) = (kz + 1, kz + 2, kz) mod 3.
-        let d = dir.to_array();
-        let (x, y, z) = (d[(kz + 1) % 3], d[(kz + 2) % 3], d[kz]);
+        // (kx, ky, kz) = (kz + 1, kz + 2, kz) mod 3: the direction rotated so that kz comes
+        // last, picked by selects (indexing an array by kz went through memory, on the path
+        // from the ray to its first triangle test).
+        let d = Vec3A::from(dir);
+        let kz_is = |axis| BVec3A::splat(kz == axis);
+        let rotated = Vec3A::select(kz_is(0), d.yzx(), Vec3A::select(kz_is(1), d.zxy(), d));
         // One vector division: the same IEEE quotients as three scalar ones.
-        let shear = Vec3::from(Vec3A::new(x, y, 1.0) / Vec3A::splat(z));
+        let shear = Vec3::from(Vec3A::new(rotated.x, rotated.y, 1.0) / Vec3A::splat(rotated.z));
         // One vector division; the same IEEE quotients as three scalar ones.
         let inv_dir = Vec3::from(Vec3A::ONE / Vec3A::from(dir));
         Self {

@@ -146,18 +146,35 @@ where
     V: Visitor,
 {
     for (triangle, corners) in triangles {
-        if let Some(h) = K::intersect(ray, &corners, *tmax) {
-            let hit = Hit {
-                t: h.t,
-                triangle,
-                u: h.u,
-                v: h.v,
-            };
-            visitor.visit(id, hit, tmax);
-            if *tmax == RAY_DONE {
-                return true;
-            }
+        if test_triangle::<K, V>(ray, id, (triangle, &corners), tmax, visitor) {
+            return true;
         }
     }
     false
+}
+
+/// [`test_triangles`] for one triangle `(id, corners)`.
+#[inline(always)]
+pub(crate) fn test_triangle<K, V>(
+    ray: &PreparedRay,
+    id: u32,
+    (triangle, corners): (u32, &[Vec3; 3]),
+    tmax: &mut f32,
+    visitor: &mut V,
+) -> bool
+where
+    K: TriangleTest,
+    V: Visitor,
+{
+    let Some(h) = K::intersect(ray, corners, *tmax) else {
+        return false;
+    };
+    let hit = Hit {
+        t: h.t,
+        triangle,
+        u: h.u,
+        v: h.v,
+    };
+    visitor.visit(id, hit, tmax);
+    *tmax == RAY_DONE
 }
