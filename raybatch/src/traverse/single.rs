@@ -127,8 +127,15 @@ where
     K: TriangleTest,
     V: Visitor,
 {
-    let triangles = (node.first..node.first + node.count).map(|slot| tree.triangle(slot));
-    test_triangles::<K, V>(ray, id, triangles, tmax, visitor)
+    // A plain loop, as in the wide trees' loop (`wide::single`): an iterator of fetched
+    // triangles may leave its `next` out of line.
+    for slot in node.first..node.first + node.count {
+        let (triangle, corners) = tree.triangle(slot);
+        if test_triangle::<K, V>(ray, id, (triangle, &corners), tmax, visitor) {
+            return true;
+        }
+    }
+    false
 }
 
 /// Tests one ray against `(id, corners)` triangles, reporting hits to `visitor`; true if the
