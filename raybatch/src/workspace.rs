@@ -35,6 +35,7 @@ impl Workspace {
 
     /// Runs `f` with this thread's workspace (or a fresh one if a query is already using it,
     /// which happens when a hit callback issues another query).
+    #[inline]
     pub fn with_local<R>(f: impl FnOnce(&mut Workspace) -> R) -> R {
         LOCAL.with(|cell| match cell.try_borrow_mut() {
             Ok(mut workspace) => f(&mut workspace),
@@ -43,25 +44,35 @@ impl Workspace {
     }
 
     /// The scratch value of type `S`, created on first use.
+    #[inline]
     pub fn scratch<S: Default + Send + 'static>(&mut self) -> &mut S {
         self.parts::<S>().1
     }
 
     /// The batched engine's arrays and the scratch of type `S`, both at once.
+    ///
+    /// Inlined: a ray traced alone looks its scratch up on every call (the first call's
+    /// allocation is out of line, in [`Workspace::add`]).
+    #[inline]
     pub(crate) fn parts<S: Default + Send + 'static>(&mut self) -> (&mut BatchScratch, &mut S) {
         let id = TypeId::of::<S>();
         let index = match self.scratch.iter().position(|(t, _)| *t == id) {
             Some(index) => index,
-            None => {
-                self.scratch.push((id, Box::new(S::default())));
-                self.scratch.len() - 1
-            }
+            None => self.add::<S>(),
         };
         let scratch = self.scratch[index]
             .1
             .downcast_mut::<S>()
             .unwrap_or_else(|| unreachable!("the entry was found or created with type S"));
         (&mut self.batch, scratch)
+    }
+
+    /// Adds the scratch of type `S`; returns its index.
+    #[cold]
+    #[inline(never)]
+    fn add<S: Default + Send + 'static>(&mut self) -> usize {
+        self.scratch.push((TypeId::of::<S>(), Box::new(S::default())));
+        self.scratch.len() - 1
     }
 }
 
