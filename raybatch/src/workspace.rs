@@ -71,7 +71,8 @@ impl Workspace {
     #[cold]
     #[inline(never)]
     fn add<S: Default + Send + 'static>(&mut self) -> usize {
-        self.scratch.push((TypeId::of::<S>(), Box::new(S::default())));
+        self.scratch
+            .push((TypeId::of::<S>(), Box::new(S::default())));
         self.scratch.len() - 1
     }
 }
