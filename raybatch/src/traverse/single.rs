@@ -139,7 +139,8 @@ where
 }
 
 /// Tests one ray against `(id, corners)` triangles, reporting hits to `visitor`; true if the
-/// visitor ended the ray. Shared by the single-ray loop and the batched leaves.
+/// visitor ended the ray. The batched leaves pass their fetched batches; the one-ray loops call
+/// [`test_triangle`] slot by slot instead (an iterator that fetches was left out of line).
 #[inline(always)]
 pub(crate) fn test_triangles<K, V>(
     ray: &PreparedRay,
