@@ -27,6 +27,7 @@ use crate::geom::sign_filter::RayOctet;
 use crate::geom::sign_filter::RayQuad;
 use crate::geom::{Aabb, PreparedRay, TriangleTest};
 use crate::hit::Visitor;
+use crate::workspace::Workspace;
 #[cfg(target_arch = "x86_64")]
 use crate::x86::Avx2;
 
@@ -70,6 +71,17 @@ pub trait Accel: Sync + Sized {
         scratch: &mut Self::Scratch,
         visitor: &mut V,
     ) -> f32;
+
+    /// [`Accel::trace`] for a ray traced alone, as ray number 0, with this thread's scratch
+    /// from its [`Workspace`]. A structure whose one-ray walk needs only a stack overrides it
+    /// to keep the stack on the call stack, which saves the workspace lookup on every ray
+    /// (the wide trees).
+    #[inline(always)]
+    fn trace_alone<K: TriangleTest, V: Visitor>(&self, ray: &PreparedRay, visitor: &mut V) {
+        Workspace::with_local(|workspace| {
+            self.trace::<K, V>(ray, 0, workspace.scratch::<Self::Scratch>(), visitor);
+        });
+    }
 
     /// A box every ray that can hit anything touches, tested first by [`Accel::trace`] as
     /// [`Aabb::hit_by`] tests it (the prepared ray, its own `tmax`): the batched queries

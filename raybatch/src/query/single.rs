@@ -1,13 +1,13 @@
 //! One ray at a time: [`RayQueries`], for every [`Accel`].
 //!
 //! Each query prepares the ray once, picks the kernel at compile time (the watertight kernel
-//! monomorphized for the ray's dominant axis) and runs [`Accel::trace`] with the thread's
-//! scratch for that structure ([`crate::workspace::Workspace`]).
+//! monomorphized for the ray's dominant axis) and runs [`Accel::trace_alone`]: [`Accel::trace`]
+//! with the thread's scratch for that structure ([`crate::workspace::Workspace`]), or a
+//! stack of the walk's own.
 
 use crate::accel::Accel;
 use crate::geom::{Kernel, KernelTask, PreparedRay, Ray, TriangleTest};
 use crate::hit::{Any, Closest, CountingClosest, EachHit, Hit, Visitor};
-use crate::workspace::Workspace;
 
 /// Runs `visitor` over every hit of `ray` (prepared) with `kernel`, as ray number 0.
 pub fn trace_one<A: Accel, V: Visitor>(
@@ -16,25 +16,20 @@ pub fn trace_one<A: Accel, V: Visitor>(
     kernel: Kernel,
     visitor: &mut V,
 ) {
-    Workspace::with_local(|workspace| {
-        let scratch = workspace.scratch::<A::Scratch>();
-        kernel.dispatch(
-            ray.kz as usize,
-            TraceOne {
-                accel,
-                ray,
-                scratch,
-                visitor,
-            },
-        )
-    })
+    kernel.dispatch(
+        ray.kz as usize,
+        TraceOne {
+            accel,
+            ray,
+            visitor,
+        },
+    )
 }
 
-/// [`Accel::trace`] packaged for [`Kernel::dispatch`].
+/// [`Accel::trace_alone`] packaged for [`Kernel::dispatch`].
 struct TraceOne<'a, A: Accel, V> {
     accel: &'a A,
     ray: &'a PreparedRay,
-    scratch: &'a mut A::Scratch,
     visitor: &'a mut V,
 }
 
@@ -42,8 +37,7 @@ impl<A: Accel, V: Visitor> KernelTask for TraceOne<'_, A, V> {
     type Output = ();
     #[inline(always)]
     fn run<K: TriangleTest>(self) {
-        self.accel
-            .trace::<K, V>(self.ray, 0, self.scratch, self.visitor);
+        self.accel.trace_alone::<K, V>(self.ray, self.visitor);
     }
 }
 

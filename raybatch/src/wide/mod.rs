@@ -33,6 +33,8 @@ pub mod node8;
 #[allow(unsafe_code)]
 pub(crate) mod simd;
 pub(crate) mod single;
+// One unsafe read, of a slot the stack wrote (see `Stack::pop`).
+#[allow(unsafe_code)]
 pub(crate) mod stack;
 pub(crate) mod stream;
 
@@ -190,6 +192,14 @@ impl<N: NodeKind> Accel for WideBvh<N> {
         visitor: &mut V,
     ) -> f32 {
         dispatch::trace::<N, K, V>(true, self, ray, id, &mut scratch.stack, visitor)
+    }
+
+    /// The one-ray loop with a stack of its own on the call stack (made without writing to
+    /// it, see [`Stack`]), not the workspace's.
+    #[inline(always)]
+    fn trace_alone<K: TriangleTest, V: Visitor>(&self, ray: &PreparedRay, visitor: &mut V) {
+        let mut stack = Stack::default();
+        dispatch::trace::<N, K, V>(true, self, ray, 0, &mut stack, visitor);
     }
 
     /// Rays side by side on large trees and short streams ([`Interleave::Auto`]), else nodes
