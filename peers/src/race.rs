@@ -80,8 +80,10 @@ pub fn race(
     for tree in [&bvh4, &bvh8] {
         closest.push(per_ray(tree, rays, |t, r| t.cast_ray(r).is_some()));
     }
-    closest.push(batched_closest(&bvh4, rays, None));
-    closest.push(batched_closest(&bvh4, rays, Some(FRAME_CALL)));
+    for tree in [&bvh4, &bvh8] {
+        closest.push(batched_closest(tree, rays, None));
+        closest.push(batched_closest(tree, rays, Some(FRAME_CALL)));
+    }
     let mut out = vec![("closest hit", run(closest, rays.len(), rounds))];
 
     if any_hit {
@@ -97,8 +99,10 @@ pub fn race(
         for tree in [&bvh4, &bvh8] {
             occluded.push(per_ray(tree, rays, |t, r| t.occluded(r)));
         }
-        occluded.push(batched_occluded(&bvh4, rays, None));
-        occluded.push(batched_occluded(&bvh4, rays, Some(FRAME_CALL)));
+        for tree in [&bvh4, &bvh8] {
+            occluded.push(batched_occluded(tree, rays, None));
+            occluded.push(batched_occluded(tree, rays, Some(FRAME_CALL)));
+        }
         out.push(("any hit", run(occluded, rays.len(), rounds)));
     }
     Ok(out)
