@@ -195,7 +195,7 @@ impl<N: NodeKind> Accel for WideBvh<N> {
     }
 
     /// The one-ray loop with a stack of its own on the call stack (made without writing to
-    /// it, see [`Stack`]), not the workspace's.
+    /// it, see `wide::stack::Stack`), not the workspace's.
     #[inline(always)]
     fn trace_alone<K: TriangleTest, V: Visitor>(&self, ray: &PreparedRay, visitor: &mut V) {
         let mut stack = Stack::default();
