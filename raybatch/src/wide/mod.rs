@@ -157,7 +157,7 @@ fn check_size(slots: usize, binary_nodes: usize, format: &'static str) -> Result
 }
 
 /// Per-thread scratch of the wide traversals.
-#[derive(Debug, Default)]
+#[derive(Debug)]
 pub struct WideScratch {
     /// The one-ray loop's stack: for rays traced alone, and for the stream engine's lists
     /// finished one ray at a time.
@@ -167,8 +167,25 @@ pub struct WideScratch {
     /// Stream: copies of the rays of a stream in lanes, and their batch positions.
     copies: Vec<PreparedRay>,
     batch_ids: Vec<u32>,
-    /// Interleaved engine: one stack per walker.
-    stacks: [Stack; interleaved::LANES],
+    /// Interleaved engine: one stack per walker, on the heap (a stack is 8 KiB, held inline).
+    stacks: Box<[Stack; interleaved::LANES]>,
+}
+
+impl Default for WideScratch {
+    fn default() -> Self {
+        // The walkers' stacks are made one at a time straight into the heap, so that making a
+        // scratch on a thread with a small stack never holds them all there at once.
+        let stacks: Box<[Stack]> = (0..interleaved::LANES).map(|_| Stack::default()).collect();
+        Self {
+            stack: Stack::default(),
+            lists: stream::Lists::default(),
+            copies: Vec::new(),
+            batch_ids: Vec::new(),
+            stacks: stacks
+                .try_into()
+                .unwrap_or_else(|_| unreachable!("LANES stacks were made")),
+        }
+    }
 }
 
 impl<N: NodeKind> Accel for WideBvh<N> {
