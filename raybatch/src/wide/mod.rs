@@ -159,8 +159,9 @@ fn check_size(slots: usize, binary_nodes: usize, format: &'static str) -> Result
 /// Per-thread scratch of the wide traversals.
 #[derive(Debug)]
 pub struct WideScratch {
-    /// The one-ray loop's stack: for rays traced alone, and for the stream engine's lists
-    /// finished one ray at a time.
+    /// The one-ray loop's stack for [`Accel::trace`] (a scene's rays, which come with this
+    /// scratch) and for the stream engine's lists finished one ray at a time. A ray traced
+    /// alone brings its own (`trace_alone`).
     stack: Stack,
     /// Stream: the index lists and what splitting them needs.
     lists: stream::Lists,
