@@ -75,12 +75,10 @@ pub trait Accel: Sync + Sized {
     /// [`Accel::trace`] for a ray traced alone, as ray number 0, with this thread's scratch
     /// from its [`Workspace`]. A structure whose one-ray walk needs only a stack overrides it
     /// to keep the stack on the call stack, which saves the workspace lookup on every ray
-    /// (the wide trees).
+    /// (the wide trees, and the binary trees whose boxes need no cache).
     #[inline(always)]
     fn trace_alone<K: TriangleTest, V: Visitor>(&self, ray: &PreparedRay, visitor: &mut V) {
-        Workspace::with_local(|workspace| {
-            self.trace::<K, V>(ray, 0, workspace.scratch::<Self::Scratch>(), visitor);
-        });
+        trace_with_workspace::<Self, K, V>(self, ray, visitor);
     }
 
     /// A box every ray that can hit anything touches, tested first by [`Accel::trace`] as
@@ -108,6 +106,19 @@ pub trait Accel: Sync + Sized {
             stream.set_tmax(i, tmax);
         }
     }
+}
+
+/// [`Accel::trace_alone`]'s default: [`Accel::trace`] with the thread's scratch, for the
+/// overrides' cases that need it.
+#[inline(always)]
+pub(crate) fn trace_with_workspace<A: Accel, K: TriangleTest, V: Visitor>(
+    accel: &A,
+    ray: &PreparedRay,
+    visitor: &mut V,
+) {
+    Workspace::with_local(|workspace| {
+        accel.trace::<K, V>(ray, 0, workspace.scratch::<A::Scratch>(), visitor);
+    });
 }
 
 /// What a structure is and what it costs: for tables, reports and the catalog.

@@ -3,56 +3,75 @@
 //! baseline copy.
 
 use super::avx2::{self, Loop};
-use super::single;
-use crate::bvh::{Bvh, BvhScratch};
+use super::single::{self, Memory, Pending};
+use super::stack::PendingStack;
+use crate::bvh::Bvh;
 use crate::geom::{PreparedRay, TriangleTest};
 use crate::hit::Visitor;
 
 /// One ray through [`single::trace`], as a [`Loop`].
-struct OneRay<'a, B: Bvh, K, V> {
+struct OneRay<'a, B: Bvh, K, V, S> {
     tree: &'a B,
     ray: &'a PreparedRay,
     id: u32,
-    scratch: &'a mut BvhScratch<B::Cache, B::NodeBox>,
+    memory: Memory<'a, B, S>,
     visitor: &'a mut V,
     kernel: std::marker::PhantomData<K>,
 }
 
-impl<B: Bvh, K: TriangleTest, V: Visitor> Loop for OneRay<'_, B, K, V> {
+impl<B, K, V, S> Loop for OneRay<'_, B, K, V, S>
+where
+    B: Bvh,
+    K: TriangleTest,
+    V: Visitor,
+    S: PendingStack<Pending<B>>,
+{
     type Output = f32;
     #[inline(always)]
     fn run(self) -> f32 {
-        single::trace::<B, K, V>(self.tree, self.ray, self.id, self.scratch, self.visitor)
+        single::trace::<B, K, V, S>(self.tree, self.ray, self.id, self.memory, self.visitor)
     }
 }
 
 /// [`single::trace`], in the AVX2 copy where the CPU has AVX2 and the tree wants it.
 #[inline]
-pub(crate) fn trace<B: Bvh, K: TriangleTest, V: Visitor>(
+pub(crate) fn trace<B, K, V, S>(
     tree: &B,
     ray: &PreparedRay,
     id: u32,
-    scratch: &mut BvhScratch<B::Cache, B::NodeBox>,
+    memory: Memory<'_, B, S>,
     visitor: &mut V,
-) -> f32 {
-    trace_in::<B, K, V>(B::AVX2_TRAVERSAL, tree, ray, id, scratch, visitor)
+) -> f32
+where
+    B: Bvh,
+    K: TriangleTest,
+    V: Visitor,
+    S: PendingStack<Pending<B>>,
+{
+    trace_in::<B, K, V, S>(B::AVX2_TRAVERSAL, tree, ray, id, memory, visitor)
 }
 
 /// [`single::trace`], in the AVX2 copy if `avx2` and the CPU has it, else the baseline copy.
 #[inline]
-pub(crate) fn trace_in<B: Bvh, K: TriangleTest, V: Visitor>(
+pub(crate) fn trace_in<B, K, V, S>(
     avx2: bool,
     tree: &B,
     ray: &PreparedRay,
     id: u32,
-    scratch: &mut BvhScratch<B::Cache, B::NodeBox>,
+    memory: Memory<'_, B, S>,
     visitor: &mut V,
-) -> f32 {
-    let one = OneRay::<B, K, V> {
+) -> f32
+where
+    B: Bvh,
+    K: TriangleTest,
+    V: Visitor,
+    S: PendingStack<Pending<B>>,
+{
+    let one = OneRay::<B, K, V, S> {
         tree,
         ray,
         id,
-        scratch,
+        memory,
         visitor,
         kernel: std::marker::PhantomData,
     };
@@ -62,7 +81,7 @@ pub(crate) fn trace_in<B: Bvh, K: TriangleTest, V: Visitor>(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::bvh::{AabbTree, BuildOptions};
+    use crate::bvh::{AabbTree, BuildOptions, BvhScratch};
     use crate::geom::{Kernel, KernelTask, Ray};
     use crate::hit::{Closest, Hit};
     use crate::test_support::{bunny, random_rays};
@@ -78,10 +97,10 @@ mod tests {
         type Output = Option<Hit>;
         fn run<K: TriangleTest>(self) -> Option<Hit> {
             let mut best = [Hit::none_before(self.ray.tmax)];
-            let mut scratch = BvhScratch::default();
+            let BvhScratch { stack, cache, .. } = &mut BvhScratch::default();
             let mut visitor = Closest { best: &mut best };
             let (tree, ray) = (self.tree, self.ray);
-            trace_in::<_, K, _>(!self.portable, tree, ray, 0, &mut scratch, &mut visitor);
+            trace_in::<_, K, _, _>(!self.portable, tree, ray, 0, (stack, cache), &mut visitor);
             best[0].found()
         }
     }

@@ -5,6 +5,8 @@
 //! - `avx2`: running a loop in a copy compiled with AVX2, picked at run time (the only
 //!   `unsafe` of the traversals);
 //! - `dispatch`: the one-ray loop through it;
+//! - `stack`: the one-ray loop's stack, the thread's `Vec` or a fixed array on the call stack
+//!   (with the traversals' other `unsafe`, one read of a slot it wrote);
 //! - `stream`: a stream of rays going down the tree once, partitioned at each node (seed 001).
 
 #[allow(unsafe_code)]
@@ -13,12 +15,18 @@ pub(crate) mod dispatch;
 #[cfg(target_arch = "x86_64")]
 pub(crate) mod packet;
 pub(crate) mod single;
+// One unsafe read, of a slot the stack wrote (see `FixedStack::pop`).
+#[allow(unsafe_code)]
+pub(crate) mod stack;
 pub(crate) mod stream;
 
-use crate::accel::{Accel, RayStream, StreamLayout};
+use crate::accel::{Accel, RayStream, StreamLayout, trace_with_workspace};
+use crate::bvh::build::MAX_DEPTH;
 use crate::bvh::{Bvh, BvhScratch};
 use crate::geom::{Aabb, PreparedRay, TriangleTest};
 use crate::hit::Visitor;
+use single::Pending;
+use stack::FixedStack;
 
 impl<B: Bvh> Accel for B {
     type Scratch = BvhScratch<B::Cache, B::NodeBox>;
@@ -41,7 +49,23 @@ impl<B: Bvh> Accel for B {
         scratch: &mut Self::Scratch,
         visitor: &mut V,
     ) -> f32 {
-        dispatch::trace::<B, K, V>(self, ray, id, scratch, visitor)
+        let BvhScratch { stack, cache, .. } = scratch;
+        dispatch::trace::<B, K, V, _>(self, ray, id, (stack, cache), visitor)
+    }
+
+    /// The one-ray loop with a stack of its own on the call stack (made without writing to
+    /// it, see `traverse::stack::FixedStack`), not the workspace's, for trees whose boxes
+    /// need no cache (an empty one is as good as the thread's) and whose paths fit the stack
+    /// (every tree the builders make). The zero-byte trees, whose box cache only pays if it
+    /// outlives the ray, and a deeper tree take the thread's scratch.
+    #[inline(always)]
+    fn trace_alone<K: TriangleTest, V: Visitor>(&self, ray: &PreparedRay, visitor: &mut V) {
+        if size_of::<B::Cache>() != 0 || self.depth() > MAX_DEPTH {
+            return trace_with_workspace::<Self, K, V>(self, ray, visitor);
+        }
+        let mut stack = FixedStack::<Pending<B>, MAX_DEPTH>::new();
+        let memory = (&mut stack, &mut B::Cache::default());
+        dispatch::trace::<B, K, V, _>(self, ray, 0, memory, visitor);
     }
 
     fn trace_stream<K: TriangleTest, V: Visitor>(

@@ -1,7 +1,7 @@
 //! The single-ray loop over a [`Bvh`]: the reference every other engine must match bit for bit.
 //!
-//! Depth first, with an explicit stack from the thread's scratch (sized from [`Bvh::depth`] on
-//! first use, never cleared or zeroed per ray). At an internal node both children's boxes are
+//! Depth first, with an explicit stack ([`PendingStack`]): the thread's scratch's (sized from
+//! [`Bvh::depth`] on first use, never zeroed per ray) or one on the call stack. At an internal node both children's boxes are
 //! read once ([`Bvh::child_bounds`]) and tested; if both are touched, the one the precomputed
 //! ordering byte names as nearer is visited now and the other is pushed with its entry distance
 //! and its box, so that a later pop can drop it without reading it again when the best hit has
@@ -12,35 +12,44 @@
 
 use glam::Vec3;
 
+use super::stack::PendingStack;
 use crate::bvh::ordering::second_child_first;
-use crate::bvh::{Bvh, BvhScratch, Node};
+use crate::bvh::{Bvh, Node};
 use crate::geom::{PreparedRay, TriangleTest};
 use crate::hit::{Hit, RAY_DONE, Visitor};
 
+/// A pending node on the loop's stack: its index, the distance at which the ray enters its box,
+/// and what is kept of the box ([`Bvh::NodeBox`]).
+pub(crate) type Pending<B> = (u32, f32, <B as Bvh>::NodeBox);
+
+/// The loop's working memory: its stack and the tree's box cache.
+pub(crate) type Memory<'a, B, S> = (&'a mut S, &'a mut <B as Bvh>::Cache);
+
 /// Traces `ray` (number `id`) through the whole tree; returns the final range end.
 #[inline(always)]
-pub(crate) fn trace<B, K, V>(
+pub(crate) fn trace<B, K, V, S>(
     tree: &B,
     ray: &PreparedRay,
     id: u32,
-    scratch: &mut BvhScratch<B::Cache, B::NodeBox>,
+    (stack, cache): Memory<'_, B, S>,
     visitor: &mut V,
 ) -> f32
 where
     B: Bvh + ?Sized,
     K: TriangleTest,
     V: Visitor,
+    S: PendingStack<Pending<B>>,
 {
     let mut tmax = ray.tmax;
     if tree.is_empty() {
         return tmax;
     }
-    let root_box = tree.root_bounds(&mut scratch.cache);
+    let root_box = tree.root_bounds(cache);
     if !root_box.hit_by(ray, tmax) {
         return tmax;
     }
     let start = (0, B::keep(&root_box));
-    trace_below::<B, K, V>(tree, ray, id, start, &mut tmax, scratch, visitor);
+    trace_below::<B, K, V, S>(tree, ray, id, start, &mut tmax, (stack, cache), visitor);
     tmax
 }
 
@@ -48,22 +57,21 @@ where
 /// with the ray's current range end `tmax`. The batched engine calls it to finish a subtree for
 /// the few rays that reach it.
 #[inline(always)]
-pub(crate) fn trace_below<B, K, V>(
+pub(crate) fn trace_below<B, K, V, S>(
     tree: &B,
     ray: &PreparedRay,
     id: u32,
     start: (u32, B::NodeBox),
     tmax: &mut f32,
-    scratch: &mut BvhScratch<B::Cache, B::NodeBox>,
+    (stack, cache): Memory<'_, B, S>,
     visitor: &mut V,
 ) where
     B: Bvh + ?Sized,
     K: TriangleTest,
     V: Visitor,
+    S: PendingStack<Pending<B>>,
 {
-    let BvhScratch { stack, cache, .. } = scratch;
-    stack.clear();
-    stack.reserve(tree.depth() + 1);
+    stack.start(tree.depth());
     let (mut index, mut node_box) = start;
     loop {
         visitor.enter_node(id);

@@ -383,10 +383,12 @@ fn finish_few<B, K, V>(
         return;
     }
     let _ = (filter, packet_from);
+    let BvhScratch { stack, cache, .. } = scratch;
     for i in 0..active {
         let ray = stream.ray(i);
         let mut tmax = ray.tmax;
-        trace_below::<B, K, V>(tree, &ray, stream.id(i), start, &mut tmax, scratch, visitor);
+        let memory = (&mut *stack, &mut *cache);
+        trace_below::<B, K, V, _>(tree, &ray, stream.id(i), start, &mut tmax, memory, visitor);
         stream.set_tmax(i, tmax);
     }
 }
