@@ -1,14 +1,15 @@
 //! The single-ray loop over a [`Bvh`]: the reference every other engine must match bit for bit.
 //!
 //! Depth first, with an explicit stack ([`PendingStack`]): the thread's scratch's (sized from
-//! [`Bvh::depth`] on first use, never zeroed per ray) or one on the call stack. At an internal node both children's boxes are
-//! read once ([`Bvh::child_bounds`]) and tested; if both are touched, the one the precomputed
-//! ordering byte names as nearer is visited now and the other is pushed with its entry distance
-//! and its box, so that a later pop can drop it without reading it again when the best hit has
-//! moved in front of it, and a pop that keeps it reads only its contents (its box is on the
-//! stack: its children's boxes may depend on it). Entry distances are
-//! compared with `<=`: a box entered exactly at the best `t` may still hold an equal-`t`
-//! triangle with a lower id (the tie rule of [`crate::hit`]).
+//! [`Bvh::depth`] on first use, never zeroed per ray), or one on the call stack for a ray
+//! traced alone. At an internal node both children's boxes are read once
+//! ([`Bvh::child_bounds`]) and tested; if both are touched, the one the precomputed ordering
+//! byte names as nearer is visited now and the other is pushed with its entry distance and its
+//! box, so that a later pop can drop it without reading it again when the best hit has moved in
+//! front of it, and a pop that keeps it reads only its contents (its box is on the stack: its
+//! children's boxes may depend on it). Entry distances are compared with `<=`: a box entered
+//! exactly at the best `t` may still hold an equal-`t` triangle with a lower id (the tie rule
+//! of [`crate::hit`]).
 
 use glam::Vec3;
 
