@@ -162,7 +162,10 @@ pub trait Bvh: Sync {
 /// Sized on first use and reused, so no query allocates or clears a stack.
 #[derive(Debug, Default)]
 pub struct BvhScratch<C, N = ()> {
-    /// Single-ray stack: pending node, its entry distance and what is kept of its box.
+    /// Single-ray stack: pending node, its entry distance and what is kept of its box. For
+    /// [`crate::accel::Accel::trace`] (a scene's rays, the stream engine's few-ray subtrees)
+    /// and the zero-byte trees' rays traced alone; the other trees' rays traced alone bring
+    /// their own.
     pub(crate) stack: Vec<(u32, f32, N)>,
     /// Batched stack: pending node, how many rays of the stream reach its parent, its box.
     pub(crate) stream_stack: Vec<(u32, u32, Aabb)>,

@@ -33,27 +33,10 @@ where
     }
 }
 
-/// [`single::trace`], in the AVX2 copy where the CPU has AVX2 and the tree wants it.
+/// [`single::trace`], in the AVX2 copy if `avx2` (the tree's [`Bvh::AVX2_TRAVERSAL`], or
+/// false for the tests' baseline) and the CPU has it, else the baseline copy.
 #[inline]
 pub(crate) fn trace<B, K, V, S>(
-    tree: &B,
-    ray: &PreparedRay,
-    id: u32,
-    memory: Memory<'_, B, S>,
-    visitor: &mut V,
-) -> f32
-where
-    B: Bvh,
-    K: TriangleTest,
-    V: Visitor,
-    S: PendingStack<Pending<B>>,
-{
-    trace_in::<B, K, V, S>(B::AVX2_TRAVERSAL, tree, ray, id, memory, visitor)
-}
-
-/// [`single::trace`], in the AVX2 copy if `avx2` and the CPU has it, else the baseline copy.
-#[inline]
-pub(crate) fn trace_in<B, K, V, S>(
     avx2: bool,
     tree: &B,
     ray: &PreparedRay,
@@ -100,7 +83,7 @@ mod tests {
             let BvhScratch { stack, cache, .. } = &mut BvhScratch::default();
             let mut visitor = Closest { best: &mut best };
             let (tree, ray) = (self.tree, self.ray);
-            trace_in::<_, K, _, _>(!self.portable, tree, ray, 0, (stack, cache), &mut visitor);
+            trace::<_, K, _, _>(!self.portable, tree, ray, 0, (stack, cache), &mut visitor);
             best[0].found()
         }
     }

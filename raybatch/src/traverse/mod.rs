@@ -50,7 +50,7 @@ impl<B: Bvh> Accel for B {
         visitor: &mut V,
     ) -> f32 {
         let BvhScratch { stack, cache, .. } = scratch;
-        dispatch::trace::<B, K, V, _>(self, ray, id, (stack, cache), visitor)
+        dispatch::trace::<B, K, V, _>(B::AVX2_TRAVERSAL, self, ray, id, (stack, cache), visitor)
     }
 
     /// The one-ray loop with a stack of its own on the call stack (made without writing to
@@ -65,7 +65,7 @@ impl<B: Bvh> Accel for B {
         }
         let mut stack = FixedStack::<Pending<B>, MAX_DEPTH>::new();
         let memory = (&mut stack, &mut B::Cache::default());
-        dispatch::trace::<B, K, V, _>(self, ray, 0, memory, visitor);
+        dispatch::trace::<B, K, V, _>(B::AVX2_TRAVERSAL, self, ray, 0, memory, visitor);
     }
 
     fn trace_stream<K: TriangleTest, V: Visitor>(
