@@ -81,10 +81,10 @@ pub trait Accel: Sync + Sized {
         trace_with_workspace::<Self, K, V>(self, ray, visitor);
     }
 
-    /// A box every ray that can hit anything touches, tested first by [`Accel::trace`] as
-    /// [`Aabb::hit_by`] tests it (the prepared ray, its own `tmax`): the batched queries
-    /// answer the rays that miss it while they prepare them (no hit, not occluded), and those
-    /// rays never enter a stream. `None` (the default): every valid ray enters one.
+    /// A box every ray that can hit anything touches: a ray that misses it as [`Aabb::hit_by`]
+    /// tests it (the prepared ray, its own `tmax`) has no hit from [`Accel::trace`]. The
+    /// batched queries answer the rays that miss it while they prepare them (no hit, not
+    /// occluded), and those rays never enter a stream. `None` (the default): every valid ray enters one.
     fn cull_bounds(&self) -> Option<Aabb> {
         None
     }

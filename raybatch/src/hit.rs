@@ -70,6 +70,12 @@ pub trait Visitor {
     /// Called for each hit of ray `ray` with `hit.t <= *tmax`.
     fn visit(&mut self, ray: u32, hit: Hit, tmax: &mut f32);
 
+    /// True if [`Visitor::enter_node`] does something. A walk then keeps the tests that only
+    /// spare it work, so that the nodes it reports are the ones it needs: the wide trees'
+    /// one-ray walk tests the root box first only then (the root node's own test turns away the
+    /// same rays, so the built-in queries skip it), and a ray that misses a tree enters none.
+    const COUNTS_NODES: bool = false;
+
     /// Called each time the one-ray walk of ray `ray` enters a node (a tree node or leaf, a
     /// grid cell): the hook behind [`crate::RayQueries::cast_ray_visits`], which draws where a
     /// structure spends its time. The default does nothing, and the built-in queries keep it,
@@ -90,6 +96,8 @@ pub struct CountingClosest<'a> {
 }
 
 impl Visitor for CountingClosest<'_> {
+    const COUNTS_NODES: bool = true;
+
     #[inline(always)]
     fn visit(&mut self, ray: u32, hit: Hit, tmax: &mut f32) {
         self.closest.visit(ray, hit, tmax);

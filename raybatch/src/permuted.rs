@@ -48,6 +48,8 @@ struct ToOriginal<'a, V> {
 }
 
 impl<V: Visitor> Visitor for ToOriginal<'_, V> {
+    const COUNTS_NODES: bool = V::COUNTS_NODES;
+
     #[inline(always)]
     fn visit(&mut self, ray: u32, hit: Hit, tmax: &mut f32) {
         let triangle = self.to_original[hit.triangle as usize];

@@ -44,6 +44,8 @@ struct ToGlobal<'a, V> {
 }
 
 impl<V: Visitor> Visitor for ToGlobal<'_, V> {
+    const COUNTS_NODES: bool = V::COUNTS_NODES;
+
     #[inline(always)]
     fn visit(&mut self, ray: u32, hit: Hit, tmax: &mut f32) {
         let ray = self.outer.map_or(ray, |outer| outer[ray as usize].1);

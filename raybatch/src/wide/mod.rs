@@ -196,7 +196,8 @@ impl<N: NodeKind> Accel for WideBvh<N> {
     const MIXES_SMALL_OCTANTS: bool = true;
     const DEFAULT_MAX_CHUNK: usize = stream::CHUNK;
 
-    /// The root box, which the one-ray loop tests before anything else.
+    /// The root box: every child box of the root node lies inside it (the one-ray loop leaves
+    /// the test to the root node, see `single::trace`).
     fn cull_bounds(&self) -> Option<Aabb> {
         (!self.is_empty()).then_some(self.root_bounds)
     }

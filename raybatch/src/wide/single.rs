@@ -31,7 +31,13 @@ pub(crate) fn trace<N: NodeKind, K: TriangleTest, V: Visitor>(
     simd: BoxSimd,
 ) -> f32 {
     let mut tmax = ray.tmax;
-    if tree.is_empty() || !tree.root_bounds.hit_by(ray, tmax) {
+    // No root box test first (unless the visitor counts nodes): the root node's test turns
+    // away the same rays, since its child boxes lie inside the root box and every rounding
+    // step of the slab test is monotone in the planes (and a root that is a leaf holds only
+    // triangles whose hits the box test never misses). Skipping it took 4.5% of a `bvh8` ray's
+    // instructions off (callgrind, 100k incoherent rays, fandisk and bunny) and 0.83-0.96x
+    // the time (alternated, best of 7 x 3 passes, fandisk, teapot, bunny).
+    if tree.is_empty() || (V::COUNTS_NODES && !tree.root_bounds.hit_by(ray, tmax)) {
         return tmax;
     }
     let wide_ray = WideRay::new(ray, simd);
