@@ -84,7 +84,8 @@ pub trait Accel: Sync + Sized {
     /// A box every ray that can hit anything touches: a ray that misses it as [`Aabb::hit_by`]
     /// tests it (the prepared ray, its own `tmax`) has no hit from [`Accel::trace`]. The
     /// batched queries answer the rays that miss it while they prepare them (no hit, not
-    /// occluded), and those rays never enter a stream. `None` (the default): every valid ray enters one.
+    /// occluded), and those rays never enter a stream. `None` (the default): every valid ray
+    /// enters one.
     fn cull_bounds(&self) -> Option<Aabb> {
         None
     }
