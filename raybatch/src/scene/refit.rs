@@ -31,7 +31,7 @@ pub(crate) fn refit(tree: &mut AabbTree, vertices: Vec<Vec3>) -> Result<(), Scen
         });
     }
     let mesh = Mesh::new(vertices, old.triangles().to_vec())?;
-    check_slotless_stay_degenerate(tree.triangles.order(), &mesh)?;
+    check_slotless_stay_degenerate(tree.triangles.ids(), &mesh)?;
     let bounds = node_bounds(tree, &mesh);
     for (index, b) in bounds.into_iter().enumerate() {
         tree.nodes.set_bounds(index as u32, b);
@@ -41,9 +41,12 @@ pub(crate) fn refit(tree: &mut AabbTree, vertices: Vec<Vec3>) -> Result<(), Scen
 }
 
 /// Errors if a triangle without a leaf slot (degenerate at build) has an area now.
-fn check_slotless_stay_degenerate(order: &[u32], mesh: &Mesh) -> Result<(), SceneError> {
+fn check_slotless_stay_degenerate(
+    ids: impl Iterator<Item = u32>,
+    mesh: &Mesh,
+) -> Result<(), SceneError> {
     let mut slotted = vec![false; mesh.triangle_count()];
-    for &id in order {
+    for id in ids {
         slotted[id as usize] = true;
     }
     match (0..mesh.triangle_count() as u32)
@@ -74,7 +77,7 @@ fn node_bounds(tree: &AabbTree, mesh: &Mesh) -> Vec<Aabb> {
     for &index in preorder.iter().rev() {
         let node = tree.node(index);
         let mut b = (node.first..node.first + node.count)
-            .map(|slot| tree.triangles.order()[slot as usize])
+            .map(|slot| tree.triangles.id(slot))
             .flat_map(|id| mesh.triangle(id))
             .fold(Aabb::EMPTY, Aabb::grow);
         if node.has_children() {

@@ -183,30 +183,12 @@ where
     K: TriangleTest,
     V: Visitor,
 {
-    test_corners::<K, V>(ray, id, (corners, || triangle), tmax, visitor)
-}
-
-/// [`test_triangle`] for a triangle whose id `triangle_id` gives only when the ray hits it:
-/// the one-ray loops read a slot's id from the leaf triangles' slot order only for a hit,
-/// keeping that load off every miss.
-#[inline(always)]
-pub(crate) fn test_corners<K, V>(
-    ray: &PreparedRay,
-    id: u32,
-    (corners, triangle_id): (&[Vec3; 3], impl FnOnce() -> u32),
-    tmax: &mut f32,
-    visitor: &mut V,
-) -> bool
-where
-    K: TriangleTest,
-    V: Visitor,
-{
     let Some(h) = K::intersect(ray, corners, *tmax) else {
         return false;
     };
     let hit = Hit {
         t: h.t,
-        triangle: triangle_id(),
+        triangle,
         u: h.u,
         v: h.v,
     };

@@ -17,7 +17,7 @@ use super::{NodeKind, WideBvh};
 use crate::bvh::nodes::leaf_word;
 use crate::geom::{PreparedRay, TriangleTest};
 use crate::hit::Visitor;
-use crate::traverse::single::test_corners;
+use crate::traverse::single::test_triangle;
 
 /// Traces `ray` (number `id`) through the whole tree, with box tests that may use `simd`;
 /// returns the final range end.
@@ -83,9 +83,8 @@ pub(crate) fn step<N: NodeKind, K: TriangleTest, V: Visitor>(
         // line on the bunny (62 instructions a triangle, a fifth of a call of 4,096 rays).
         let (first, count) = leaf_word::unpack(item);
         for slot in first..first + count {
-            let corners = tree.triangles.corners(slot);
-            let triangle_id = || tree.triangles.id(slot);
-            if test_corners::<K, V>(ray, id, (&corners, triangle_id), tmax, visitor) {
+            let (triangle, corners) = tree.triangle(slot);
+            if test_triangle::<K, V>(ray, id, (triangle, &corners), tmax, visitor) {
                 return None;
             }
         }
