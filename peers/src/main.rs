@@ -17,16 +17,21 @@ use std::process::ExitCode;
 use std::sync::Arc;
 
 use raybatch::{AccelKind, Mesh, Ray};
+use raybatch_tools::scenes::{self, SceneKind};
 
 use raybatch_peers::compare::{T_TOLERANCE, compare};
 use raybatch_peers::engines::{self, Run};
 use raybatch_peers::{embree_ffi, race, rays};
 
 const USAGE: &str = "\
-usage: peers [--mesh FILE.obj] [--rays N] [--sets A,B,..] [--seed S] [--runs R] [--race R]
+usage: peers [--mesh FILE.obj | --scene NAME] [--rays N] [--sets A,B,..] [--seed S] [--runs R]
+             [--race R]
 
   --mesh FILE.obj  triangle mesh, treated as one object (default: data/stanford-bunny.obj of
                    the raybatch crate)
+  --scene NAME     instead, a built-in scene of `raybatch bench` (bunny, terrain, city, sparse)
+                   with its own ray sets: the city's line of sight is sightlines between
+                   walkers in its streets, the game-AI case
   --rays N         rays per set (default 1000000; underscores allowed)
   --sets A,B,..    ray sets of raybatch_tools::scenes (default incoherent,outside-in,line-of-sight;
                    also camera, short); line-of-sight also times any-hit queries
@@ -40,6 +45,8 @@ usage: peers [--mesh FILE.obj] [--rays N] [--sets A,B,..] [--seed S] [--runs R] 
 
 struct Args {
     mesh: PathBuf,
+    /// A built-in scene instead of `mesh` (`--scene NAME`).
+    scene: Option<String>,
     rays: usize,
     sets: Vec<rays::SetKind>,
     seed: u64,
@@ -54,6 +61,7 @@ fn parse_args() -> Result<Args, String> {
             env!("CARGO_MANIFEST_DIR"),
             "/../data/stanford-bunny.obj"
         )),
+        scene: None,
         rays: 1_000_000,
         sets: rays::DEFAULT_SETS.to_vec(),
         seed: 1,
@@ -73,6 +81,10 @@ fn parse_args() -> Result<Args, String> {
         };
         match flag.as_str() {
             "--mesh" => args.mesh = PathBuf::from(value),
+            "--scene" => {
+                scenes::named(&value).ok_or_else(|| format!("unknown scene {value:?}"))?;
+                args.scene = Some(value);
+            }
             "--rays" => args.rays = number(&value)? as usize,
             "--sets" => {
                 args.sets = value
@@ -116,9 +128,21 @@ fn main() -> ExitCode {
     }
 }
 
-fn run(args: &Args) -> Result<(), String> {
+/// The mesh `args` name, its name for the report and its scene kind (an OBJ file is one object).
+fn load(args: &Args) -> Result<(String, Mesh, SceneKind), String> {
+    if let Some(name) = &args.scene {
+        eprintln!("building the {name} scene");
+        let scene = scenes::named(name).ok_or_else(|| format!("unknown scene {name:?}"))?;
+        return Ok((format!("{name} (built-in scene)"), scene.mesh, scene.kind));
+    }
     eprintln!("loading {}", args.mesh.display());
-    let mesh = Arc::new(Mesh::load_obj(&args.mesh).map_err(|e| e.to_string())?);
+    let mesh = Mesh::load_obj(&args.mesh).map_err(|e| e.to_string())?;
+    Ok((args.mesh.display().to_string(), mesh, SceneKind::Object))
+}
+
+fn run(args: &Args) -> Result<(), String> {
+    let (name, mesh, scene) = load(args)?;
+    let mesh = Arc::new(mesh);
     let device = embree_ffi::Device::new("threads=1")?;
     eprintln!(
         "Embree {} ({} tasking), {} triangles",
@@ -131,7 +155,7 @@ fn run(args: &Args) -> Result<(), String> {
     println!(
         "Mesh `{}` ({} triangles, {} vertices); {} rays per set, seed {}; best of {}; \
          build and query single-threaded; Embree {} ({} tasking).\n",
-        args.mesh.display(),
+        name,
         mesh.triangle_count(),
         mesh.vertices().len(),
         args.rays,
@@ -144,7 +168,7 @@ fn run(args: &Args) -> Result<(), String> {
         device.tasking_system(),
     );
 
-    for set in rays::ray_sets(&mesh, &args.sets, args.rays, args.seed) {
+    for set in rays::ray_sets((&mesh, scene), &args.sets, args.rays, args.seed) {
         eprintln!("ray set {}: {} rays", set.name(), set.rays.len());
         if let Some(rounds) = args.race {
             println!("## {} rays ({})\n", set.name(), set.description);

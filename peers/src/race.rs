@@ -15,7 +15,7 @@ use std::hint::black_box;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
-use raybatch::{AccelKind, AnyAccel, BatchOptions, BuildOptions, Hit, Mesh, Ray};
+use raybatch::{AccelKind, AnyAccel, BatchOptions, BatchOrdering, BuildOptions, Hit, Mesh, Ray};
 
 use crate::embree_ffi as rtc;
 use crate::engines::{EMBREE_QUALITY, FRAME_CALL, raybatch_batched_engine, raybatch_engine};
@@ -81,9 +81,18 @@ pub fn race(
         closest.push(per_ray(tree, rays, |t, r| t.cast_ray(r).is_some()));
     }
     for tree in [&bvh4, &bvh8] {
-        closest.push(batched_closest(tree, rays, None));
-        closest.push(batched_closest(tree, rays, Some(FRAME_CALL)));
+        closest.push(batched_closest(tree, rays, None, BatchOrdering::ByOctant));
+        closest.push(batched_closest(
+            tree,
+            rays,
+            Some(FRAME_CALL),
+            BatchOrdering::ByOctant,
+        ));
     }
+    // The default tree with every octant its own stream (the rows above mix the small ones).
+    let apart = BatchOrdering::SeparateOctants;
+    closest.push(batched_closest(&bvh4, rays, None, apart));
+    closest.push(batched_closest(&bvh4, rays, Some(FRAME_CALL), apart));
     let mut out = vec![("closest hit", run(closest, rays.len(), rounds))];
 
     if any_hit {
@@ -155,9 +164,11 @@ fn batched_closest<'a>(
     tree: &'a (AccelKind, AnyAccel),
     rays: &'a [Ray],
     calls_of: Option<usize>,
+    ordering: BatchOrdering,
 ) -> Contender<'a> {
     let mut hits: Vec<Option<Hit>> = vec![None; calls_of.unwrap_or(rays.len())];
-    batched(tree, rays, calls_of, move |tree, rays, hit, batch| {
+    let calls = (calls_of, ordering);
+    batched(tree, rays, calls, move |tree, rays, hit, batch| {
         let hits = &mut hits[..rays.len()];
         tree.cast_rays_with(rays, hits, batch)
             .expect("output sized to the rays");
@@ -174,24 +185,32 @@ fn batched_occluded<'a>(
     rays: &'a [Ray],
     calls_of: Option<usize>,
 ) -> Contender<'a> {
-    batched(tree, rays, calls_of, |tree, rays, occluded, batch| {
+    let calls = (calls_of, BatchOrdering::ByOctant);
+    batched(tree, rays, calls, |tree, rays, occluded, batch| {
         tree.occluded_batch_with(rays, occluded, batch)
             .expect("output sized to the rays")
     })
 }
 
 /// A batched contender: `call` answers each call's rays (all of them, or `calls_of` at a
-/// time) on one thread, writing one answer per ray.
+/// time) on one thread with `ordering`, writing one answer per ray.
 fn batched<'a>(
     (kind, tree): &'a (AccelKind, AnyAccel),
     rays: &'a [Ray],
-    calls_of: Option<usize>,
+    (calls_of, ordering): (Option<usize>, BatchOrdering),
     mut call: impl FnMut(&AnyAccel, &[Ray], &mut [bool], &BatchOptions) + 'a,
 ) -> Contender<'a> {
     let size = calls_of.unwrap_or(rays.len()).max(1);
-    let batch = BatchOptions::default().with_parallel(false);
+    let batch = BatchOptions {
+        ordering,
+        ..BatchOptions::default().with_parallel(false)
+    };
+    let mut name = raybatch_batched_engine(*kind, calls_of);
+    if ordering != BatchOrdering::ByOctant {
+        name = format!("{name}, {}", ordering.name());
+    }
     Contender {
-        name: raybatch_batched_engine(*kind, calls_of),
+        name,
         pass: Box::new(move |answers: &mut [bool]| {
             for (rays, out) in rays.chunks(size).zip(answers.chunks_mut(size)) {
                 call(tree, rays, out, &batch);

@@ -33,8 +33,13 @@ impl RaySet {
     }
 }
 
-/// What each set is, for a mesh treated as a single object (`SceneKind::Object`).
-pub fn describe(kind: SetKind) -> &'static str {
+/// What each set is on a scene of kind `scene`: for a mesh treated as a single object
+/// (`SceneKind::Object`), in full; on a terrain or a city, `raybatch bench`'s sets for it (its
+/// line-of-sight set, for instance, is sightlines between walkers in a city's streets).
+pub fn describe(kind: SetKind, scene: SceneKind) -> &'static str {
+    if scene != SceneKind::Object {
+        return "the `raybatch bench` set of this name for the scene";
+    }
     match kind {
         SetKind::Incoherent => {
             "origins uniform in the mesh bounds, directions uniform on the unit sphere, \
@@ -53,14 +58,20 @@ pub fn describe(kind: SetKind) -> &'static str {
     }
 }
 
-/// `count` rays of each of `sets` for `mesh`, reproducible from `seed` (the mesh is treated as a
-/// single object). Line-of-sight sets are also used for any-hit queries.
-pub fn ray_sets(mesh: &Mesh, sets: &[SetKind], count: usize, seed: u64) -> Vec<RaySet> {
+/// `count` rays of each of `sets` for `mesh`, a scene of kind `scene` (an OBJ file is treated
+/// as a single object), reproducible from `seed`. Line-of-sight sets are also used for any-hit
+/// queries.
+pub fn ray_sets(
+    (mesh, scene): (&Mesh, SceneKind),
+    sets: &[SetKind],
+    count: usize,
+    seed: u64,
+) -> Vec<RaySet> {
     sets.iter()
         .map(|&kind| RaySet {
             kind,
-            description: describe(kind),
-            rays: scenes::generate(kind, mesh, SceneKind::Object, count, seed),
+            description: describe(kind, scene),
+            rays: scenes::generate(kind, mesh, scene, count, seed),
             any_hit: kind == SetKind::LineOfSight,
         })
         .collect()
@@ -82,8 +93,9 @@ mod tests {
             vec![[0, 1, 2]],
         )
         .unwrap();
-        let a = ray_sets(&mesh, &DEFAULT_SETS, 500, 7);
-        let b = ray_sets(&mesh, &DEFAULT_SETS, 500, 7);
+        let object = (&mesh, SceneKind::Object);
+        let a = ray_sets(object, &DEFAULT_SETS, 500, 7);
+        let b = ray_sets(object, &DEFAULT_SETS, 500, 7);
         assert_eq!(a.len(), 3);
         for (x, y) in a.iter().zip(&b) {
             assert_eq!(x.rays, y.rays);

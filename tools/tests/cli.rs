@@ -307,9 +307,9 @@ fn batched_and_threaded_output_equals_per_ray_output() {
     }
 }
 
-/// `--passes`, `--batch-size`, `--max-chunk`, `--wide-leaf` and `--leaf-copy` change the timing,
-/// never the output; the JSON line reports every pass, the chunk, the wide leaf size and the
-/// leaf copy asked for.
+/// `--passes`, `--batch-size`, `--max-chunk`, `--wide-leaf`, `--leaf-copy` and `--ordering`
+/// change the timing, never the output; the JSON line reports every pass, the chunk, the wide
+/// leaf size, the leaf copy and the ordering asked for.
 #[test]
 fn passes_and_batch_size_keep_the_output() {
     let dir = TempDir::new("passes");
@@ -343,6 +343,13 @@ fn passes_and_batch_size_keep_the_output() {
         assert!(bytes == expected, "{extra:?}: output differs");
         let wide = raybatch::AccelKind::from_name(tree).is_some_and(|k| k.is_wide());
         assert_eq!(json_int(&line, "wide_leaf"), wide.then_some(1), "{line}");
+        // Every batch ordering: the same answers.
+        for ordering in ["by-octant", "separate-octants", "unordered"] {
+            let extra = [base.as_slice(), &["--batched", "--ordering", ordering]].concat();
+            let (bytes, line) = query_ok(&dir, &mesh, &rays_path, &extra);
+            assert!(bytes == expected, "{extra:?}: output differs");
+            assert_eq!(json_str(&line, "ordering"), Some(ordering), "{line}");
+        }
         // Every leaf copy: the same answers, per ray and batched.
         for copy in ["nothing", "indices", "corners"] {
             for engine in [&[][..], &["--batched"]] {

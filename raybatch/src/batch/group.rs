@@ -34,7 +34,8 @@ pub(crate) const GROUPS: usize = 8;
 /// How a chunk's rays are grouped by direction octant.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub(crate) enum Grouping {
-    /// A group per octant ([`BatchOrdering::ByOctant`]).
+    /// A group per octant ([`BatchOrdering::ByOctant`] for a structure that does not mix
+    /// octants, [`BatchOrdering::SeparateOctants`]).
     ByOctant,
     /// A group per octant holding at least a quarter of the chunk's valid rays; the rays of
     /// the other octants in one group of mixed octants (see the module docs).
@@ -49,7 +50,9 @@ impl Grouping {
     pub(crate) fn new(ordering: BatchOrdering, by_octant: bool, mix_small: bool) -> Self {
         match (ordering, by_octant, mix_small) {
             (BatchOrdering::Unordered, _, _) | (_, false, _) => Grouping::Unordered,
-            (BatchOrdering::ByOctant, true, false) => Grouping::ByOctant,
+            (BatchOrdering::ByOctant, true, false) | (BatchOrdering::SeparateOctants, true, _) => {
+                Grouping::ByOctant
+            }
             (BatchOrdering::ByOctant, true, true) => Grouping::LargeOctants,
         }
     }
@@ -365,6 +368,26 @@ mod tests {
         let in_groups: usize = groups.iter().map(|(start, end, _)| end - start).sum();
         assert_eq!(in_groups, kept);
         assert!(kept > 100 && rays.len() - kept > 100, "{kept} kept");
+    }
+
+    /// The ordering picks the grouping: a structure that mixes small octants gets
+    /// [`Grouping::LargeOctants`] under [`BatchOrdering::ByOctant`] and a group per octant
+    /// under [`BatchOrdering::SeparateOctants`]; a structure that does not, a group per octant
+    /// under both; one that does not group by octant, one group whatever the ordering.
+    #[test]
+    fn the_ordering_picks_the_grouping() {
+        use BatchOrdering::{ByOctant, SeparateOctants, Unordered};
+        for (ordering, by_octant, mix_small, expected) in [
+            (ByOctant, true, true, Grouping::LargeOctants),
+            (SeparateOctants, true, true, Grouping::ByOctant),
+            (ByOctant, true, false, Grouping::ByOctant),
+            (SeparateOctants, true, false, Grouping::ByOctant),
+            (Unordered, true, true, Grouping::Unordered),
+            (SeparateOctants, false, true, Grouping::Unordered),
+        ] {
+            let grouping = Grouping::new(ordering, by_octant, mix_small);
+            assert_eq!(grouping, expected, "{ordering:?} {by_octant} {mix_small}");
+        }
     }
 
     /// [`Grouping::LargeOctants`]: an octant holding a quarter of the valid rays or more keeps

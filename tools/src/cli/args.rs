@@ -12,7 +12,7 @@ use std::path::PathBuf;
 use clap::builder::{PossibleValue, PossibleValuesParser, TypedValueParser};
 use clap::{Args, Parser, Subcommand, ValueEnum};
 use raybatch::bvh::build::MAX_LEAF_SIZE;
-use raybatch::{AccelKind, BuildOptions, Interleave, Kernel, LeafCopy};
+use raybatch::{AccelKind, BatchOrdering, BuildOptions, Interleave, Kernel, LeafCopy};
 use raybatch_tools::scenes::RaySet;
 
 use crate::bench::SCENE_NAMES;
@@ -155,6 +155,13 @@ pub struct QueryArgs {
     /// (auto).
     #[arg(long, value_name = "WHEN", default_value = Interleave::default().name(), value_parser = choice(&Interleave::ALL, Interleave::name))]
     pub interleave: Interleave,
+    /// With --batched, how the rays are grouped by direction (the same answers): by-octant
+    /// (the wide trees walk the octants holding less than a quarter of a chunk as one
+    /// stream), separate-octants (every octant apart: every ray meets the children nearest
+    /// first; faster for closest-hit rays that pass many surfaces, such as sightlines in a
+    /// city), unordered (one stream, children in a fixed order).
+    #[arg(long, value_name = "ORDER", default_value = BatchOrdering::default().name(), value_parser = choice(&BatchOrdering::ALL, BatchOrdering::name))]
+    pub ordering: BatchOrdering,
 }
 
 /// Flags of `raybatch rays`.

@@ -10,7 +10,7 @@
 //! pool of `N` threads (see [`crate::runner`]); `--passes N` times N passes after a warm-up
 //! and reports their median. Every combination writes the same bytes.
 
-use raybatch::{AnyAccel, BatchOrdering, BuildOptions, Ray};
+use raybatch::{AnyAccel, BuildOptions, Ray};
 use raybatch_tools::formats::{write_closest, write_occluded};
 
 use crate::args::QueryArgs;
@@ -96,7 +96,7 @@ fn answer<'t>(
 /// The query the flags ask for: `--batched` picks the engine, `--threads` the pool.
 fn query_for(args: &QueryArgs) -> Query {
     let engine = if args.batched {
-        Engine::batched(BatchOrdering::ByOctant)
+        Engine::batched(args.ordering)
     } else {
         Engine::PerRay
     };
@@ -136,6 +136,11 @@ fn report(args: &QueryArgs, triangles: usize, answers: &Answers) -> JsonLine {
         line
     };
     let line = line.str("leaf_copy", args.leaf_copy.name());
+    let line = if args.batched {
+        line.str("ordering", args.ordering.name())
+    } else {
+        line
+    };
     match (args.passes, args.batch_size) {
         (None, None) => line,
         _ => {
