@@ -17,7 +17,7 @@ pub enum BatchOrdering {
     /// Group by direction octant, every octant apart however few rays it holds, so that every
     /// ray walks the children of every node nearest first (the wide trees' mixed streams walk
     /// them in slot order). For closest-hit rays that pass many surfaces before the nearest,
-    /// such as street-level sightlines in a city (2.0-2.6x the speed of [`Self::ByOctant`]
+    /// such as street-level sightlines in a city (2.3-2.6x the speed of [`Self::ByOctant`]
     /// there, the twenty-third session's README); rays that meet few surfaces (incoherent rays
     /// inside an object, short rays) and any-hit queries are faster with [`Self::ByOctant`].
     /// The same as [`Self::ByOctant`] for the structures that do not mix octants.
