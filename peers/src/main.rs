@@ -81,10 +81,8 @@ fn parse_args() -> Result<Args, String> {
         };
         match flag.as_str() {
             "--mesh" => args.mesh = PathBuf::from(value),
-            "--scene" => {
-                scenes::named(&value).ok_or_else(|| format!("unknown scene {value:?}"))?;
-                args.scene = Some(value);
-            }
+            // Checked by `load`: naming a scene builds it.
+            "--scene" => args.scene = Some(value),
             "--rays" => args.rays = number(&value)? as usize,
             "--sets" => {
                 args.sets = value
@@ -132,7 +130,8 @@ fn main() -> ExitCode {
 fn load(args: &Args) -> Result<(String, Mesh, SceneKind), String> {
     if let Some(name) = &args.scene {
         eprintln!("building the {name} scene");
-        let scene = scenes::named(name).ok_or_else(|| format!("unknown scene {name:?}"))?;
+        let scene = scenes::named(name)
+            .ok_or_else(|| format!("unknown scene {name:?} (bunny, terrain, city or sparse)"))?;
         return Ok((format!("{name} (built-in scene)"), scene.mesh, scene.kind));
     }
     eprintln!("loading {}", args.mesh.display());

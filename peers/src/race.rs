@@ -80,17 +80,12 @@ pub fn race(
     for tree in [&bvh4, &bvh8] {
         closest.push(per_ray(tree, rays, |t, r| t.cast_ray(r).is_some()));
     }
+    let (by_octant, apart) = (BatchOrdering::ByOctant, BatchOrdering::SeparateOctants);
     for tree in [&bvh4, &bvh8] {
-        closest.push(batched_closest(tree, rays, None, BatchOrdering::ByOctant));
-        closest.push(batched_closest(
-            tree,
-            rays,
-            Some(FRAME_CALL),
-            BatchOrdering::ByOctant,
-        ));
+        closest.push(batched_closest(tree, rays, None, by_octant));
+        closest.push(batched_closest(tree, rays, Some(FRAME_CALL), by_octant));
     }
     // The default tree with every octant its own stream (the rows above mix the small ones).
-    let apart = BatchOrdering::SeparateOctants;
     closest.push(batched_closest(&bvh4, rays, None, apart));
     closest.push(batched_closest(&bvh4, rays, Some(FRAME_CALL), apart));
     let mut out = vec![("closest hit", run(closest, rays.len(), rounds))];

@@ -194,20 +194,33 @@ impl LeafTriangles {
     pub(crate) fn prefetch(&self, slots: std::ops::Range<u32>, stage: u8) -> bool {
         let (first, end) = (slots.start as usize, slots.end as usize);
         let mesh = &self.mesh;
+        // Each arm says whether it sent the corners.
         match (&self.slots, stage) {
-            (Slots::IdsAndCorners(_, corners), _) => corners[first..end].iter().for_each(prefetch),
-            (Slots::IndicesAndId(indices), 0) => indices[first..end].iter().for_each(prefetch),
-            (Slots::IndicesAndId(indices), _) => indices[first..end]
-                .iter()
-                .for_each(|slot| mesh.prefetch_corners(&slot.indices)),
-            (Slots::Ids(order), 0) => order[first..end]
-                .iter()
-                .for_each(|&id| mesh.prefetch_indices(id)),
-            (Slots::Ids(order), _) => order[first..end]
-                .iter()
-                .for_each(|&id| mesh.prefetch_corners(&mesh.triangles()[id as usize])),
+            (Slots::IdsAndCorners(_, corners), _) => {
+                corners[first..end].iter().for_each(prefetch);
+                true
+            }
+            (Slots::IndicesAndId(indices), 0) => {
+                indices[first..end].iter().for_each(prefetch);
+                false
+            }
+            (Slots::IndicesAndId(indices), _) => {
+                let corners = |slot: &IndexedSlot| mesh.prefetch_corners(&slot.indices);
+                indices[first..end].iter().for_each(corners);
+                true
+            }
+            (Slots::Ids(order), 0) => {
+                order[first..end]
+                    .iter()
+                    .for_each(|&id| mesh.prefetch_indices(id));
+                false
+            }
+            (Slots::Ids(order), _) => {
+                let corners = |&id: &u32| mesh.prefetch_corners(&mesh.triangles()[id as usize]);
+                order[first..end].iter().for_each(corners);
+                true
+            }
         }
-        stage > 0 || matches!(self.slots, Slots::IdsAndCorners(..))
     }
 
     /// Bytes added to the mesh: the slot order and the copy.
