@@ -80,14 +80,21 @@ pub fn race(
     for tree in [&bvh4, &bvh8] {
         closest.push(per_ray(tree, rays, |t, r| t.cast_ray(r).is_some()));
     }
-    let (by_octant, apart) = (BatchOrdering::ByOctant, BatchOrdering::SeparateOctants);
     for tree in [&bvh4, &bvh8] {
-        closest.push(batched_closest(tree, rays, None, by_octant));
-        closest.push(batched_closest(tree, rays, Some(FRAME_CALL), by_octant));
+        closest.push(batched_closest(tree, rays, None, BatchOrdering::ByOctant));
+        closest.push(batched_closest(
+            tree,
+            rays,
+            Some(FRAME_CALL),
+            BatchOrdering::ByOctant,
+        ));
     }
-    // The default tree with every octant its own stream (the rows above mix the small ones).
-    closest.push(batched_closest(&bvh4, rays, None, apart));
-    closest.push(batched_closest(&bvh4, rays, Some(FRAME_CALL), apart));
+    // The default tree with every octant its own stream, and with the small ones always mixed:
+    // the two groupings the rows above choose between (`BatchOrdering::ByOctant`).
+    for ordering in [BatchOrdering::SeparateOctants, BatchOrdering::MixedOctants] {
+        closest.push(batched_closest(&bvh4, rays, None, ordering));
+        closest.push(batched_closest(&bvh4, rays, Some(FRAME_CALL), ordering));
+    }
     let mut out = vec![("closest hit", run(closest, rays.len(), rounds))];
 
     if any_hit {

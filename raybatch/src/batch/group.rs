@@ -46,15 +46,30 @@ pub(crate) enum Grouping {
 
 impl Grouping {
     /// The grouping for a structure that wants octant groups (`by_octant`), mixing the small
-    /// ones (`mix_small`), under the caller's `ordering`.
-    pub(crate) fn new(ordering: BatchOrdering, by_octant: bool, mix_small: bool) -> Self {
+    /// ones (`mix_small`), under the caller's `ordering`; `mix` is the thread's choice for
+    /// [`BatchOrdering::ByOctant`] (see [`Grouping::asks_judge`]).
+    pub(crate) fn new(
+        ordering: BatchOrdering,
+        (by_octant, mix_small): (bool, bool),
+        mix: bool,
+    ) -> Self {
         match (ordering, by_octant, mix_small) {
             (BatchOrdering::Unordered, _, _) | (_, false, _) => Grouping::Unordered,
-            (BatchOrdering::ByOctant, true, false) | (BatchOrdering::SeparateOctants, true, _) => {
-                Grouping::ByOctant
-            }
-            (BatchOrdering::ByOctant, true, true) => Grouping::LargeOctants,
+            (BatchOrdering::SeparateOctants, true, _) | (_, true, false) => Grouping::ByOctant,
+            (BatchOrdering::MixedOctants, true, true) => Grouping::LargeOctants,
+            (BatchOrdering::ByOctant, true, true) if mix => Grouping::LargeOctants,
+            (BatchOrdering::ByOctant, true, true) => Grouping::ByOctant,
         }
+    }
+
+    /// Whether the thread's choice (`crate::batch::mixing`) decides between
+    /// [`Grouping::LargeOctants`] and [`Grouping::ByOctant`]: the default ordering, for a
+    /// structure that mixes small octants.
+    pub(crate) fn asks_judge(
+        ordering: BatchOrdering,
+        (by_octant, mix_small): (bool, bool),
+    ) -> bool {
+        ordering == BatchOrdering::ByOctant && by_octant && mix_small
     }
 }
 
@@ -371,22 +386,37 @@ mod tests {
     }
 
     /// The ordering picks the grouping: a structure that mixes small octants gets
-    /// [`Grouping::LargeOctants`] under [`BatchOrdering::ByOctant`] and a group per octant
-    /// under [`BatchOrdering::SeparateOctants`]; a structure that does not, a group per octant
-    /// under both; one that does not group by octant, one group whatever the ordering.
+    /// [`Grouping::LargeOctants`] under [`BatchOrdering::MixedOctants`], a group per octant
+    /// under [`BatchOrdering::SeparateOctants`], and what the thread's choice says under
+    /// [`BatchOrdering::ByOctant`] (the only ordering that asks it); a structure that does not
+    /// mix, a group per octant under all three; one that does not group by octant, one group
+    /// whatever the ordering.
     #[test]
     fn the_ordering_picks_the_grouping() {
-        use BatchOrdering::{ByOctant, SeparateOctants, Unordered};
-        for (ordering, by_octant, mix_small, expected) in [
-            (ByOctant, true, true, Grouping::LargeOctants),
-            (SeparateOctants, true, true, Grouping::ByOctant),
-            (ByOctant, true, false, Grouping::ByOctant),
-            (SeparateOctants, true, false, Grouping::ByOctant),
-            (Unordered, true, true, Grouping::Unordered),
-            (SeparateOctants, false, true, Grouping::Unordered),
+        use BatchOrdering::{ByOctant, MixedOctants, SeparateOctants, Unordered};
+        use Grouping as G;
+        // (ordering, by octant, mixes small, grouping when the judge mixes, when it does not)
+        for (ordering, by_octant, mix_small, mixing, separate) in [
+            (ByOctant, true, true, G::LargeOctants, G::ByOctant),
+            (MixedOctants, true, true, G::LargeOctants, G::LargeOctants),
+            (SeparateOctants, true, true, G::ByOctant, G::ByOctant),
+            (ByOctant, true, false, G::ByOctant, G::ByOctant),
+            (MixedOctants, true, false, G::ByOctant, G::ByOctant),
+            (SeparateOctants, true, false, G::ByOctant, G::ByOctant),
+            (Unordered, true, true, G::Unordered, G::Unordered),
+            (SeparateOctants, false, true, G::Unordered, G::Unordered),
+            (ByOctant, false, true, G::Unordered, G::Unordered),
         ] {
-            let grouping = Grouping::new(ordering, by_octant, mix_small);
-            assert_eq!(grouping, expected, "{ordering:?} {by_octant} {mix_small}");
+            let structure = (by_octant, mix_small);
+            let case = format!("{ordering:?} {by_octant} {mix_small}");
+            assert_eq!(Grouping::new(ordering, structure, true), mixing, "{case}");
+            assert_eq!(
+                Grouping::new(ordering, structure, false),
+                separate,
+                "{case}"
+            );
+            let asks = Grouping::asks_judge(ordering, structure);
+            assert_eq!(asks, mixing != separate, "{case}");
         }
     }
 

@@ -4,6 +4,8 @@
 //! - [`options`]: [`BatchOptions`] and [`BatchOrdering`].
 //! - `chunks`: large batches split into chunks over rayon's pool, one workspace per thread.
 //! - `group`: a chunk's rays validated, prepared and grouped by direction octant into lanes.
+//! - `mixing`: whether a thread's closest-hit chunks walk their small octants mixed, judged
+//!   from the hits its last chunks reported.
 //! - `lanes`: the structure-of-arrays ray lanes a [`crate::accel::RayStream`] wraps for
 //!   structures that partition rays (binary trees, scenes).
 //! - `rays`: the same rays as an array of prepared records, for structures that walk rays by
@@ -20,6 +22,7 @@
 pub(crate) mod chunks;
 pub(crate) mod group;
 pub(crate) mod lanes;
+pub(crate) mod mixing;
 pub mod options;
 pub(crate) mod origin_order;
 pub mod partition;

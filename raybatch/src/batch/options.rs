@@ -8,29 +8,37 @@ use super::partition::PartitionKernel;
 /// same answers; they differ in speed only.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 pub enum BatchOrdering {
-    /// Group by direction octant and use each node's precomputed order (the default; the
-    /// wide trees keep only the octants holding a quarter of a chunk apart and walk the
-    /// others' rays together, `Accel::MIXES_SMALL_OCTANTS`: for incoherent rays one long
-    /// stream shares more nodes than eight short ones).
+    /// Group by direction octant and use each node's precomputed order (the default). The
+    /// wide trees keep apart only the octants holding a quarter of a chunk and walk the
+    /// others' rays together (`Accel::MIXES_SMALL_OCTANTS`: for incoherent rays one long
+    /// stream shares more nodes than eight short ones), except for closest-hit rays that
+    /// pass many surfaces before their nearest one: once a chunk's walk reports more than
+    /// three hits per ray with a hit, the thread keeps every octant apart for its next 32
+    /// chunks (as [`Self::SeparateOctants`]), then looks again (`batch::mixing` says why).
     #[default]
     ByOctant,
     /// Group by direction octant, every octant apart however few rays it holds, so that every
     /// ray walks the children of every node nearest first (the wide trees' mixed streams walk
     /// them in slot order). For closest-hit rays that pass many surfaces before the nearest,
-    /// such as street-level sightlines in a city (2.3-2.6x the speed of [`Self::ByOctant`]
-    /// there, the twenty-third session's README); rays that meet few surfaces (incoherent rays
-    /// inside an object, short rays) and any-hit queries are faster with [`Self::ByOctant`].
-    /// The same as [`Self::ByOctant`] for the structures that do not mix octants.
+    /// such as street-level sightlines in a city (2.3-2.6x the speed of mixed streams there,
+    /// the twenty-third session's README); rays that meet few surfaces (incoherent rays
+    /// inside an object, short rays) and any-hit queries are faster mixed. The same as
+    /// [`Self::ByOctant`] for the structures that do not mix octants.
     SeparateOctants,
+    /// Group by direction octant, and let the structures that mix small octants always mix
+    /// them, whatever the hits: [`Self::ByOctant`] without its choice (what it did before the
+    /// twenty-fourth session), for measuring the choice.
+    MixedOctants,
     /// One group for all directions, children in fixed order.
     Unordered,
 }
 
 impl BatchOrdering {
     /// Every ordering.
-    pub const ALL: [BatchOrdering; 3] = [
+    pub const ALL: [BatchOrdering; 4] = [
         BatchOrdering::ByOctant,
         BatchOrdering::SeparateOctants,
+        BatchOrdering::MixedOctants,
         BatchOrdering::Unordered,
     ];
 
@@ -39,6 +47,7 @@ impl BatchOrdering {
         match self {
             BatchOrdering::ByOctant => "by-octant",
             BatchOrdering::SeparateOctants => "separate-octants",
+            BatchOrdering::MixedOctants => "mixed-octants",
             BatchOrdering::Unordered => "unordered",
         }
     }
@@ -83,7 +92,8 @@ pub struct BatchOptions {
     /// How rays are grouped by direction. Structures that walk each ray alone (grids, the
     /// kd-tree: `Accel::GROUP_BY_OCTANT` is false) always get one group; the wide trees get
     /// the octants that hold a quarter of a chunk as their own groups and the others' rays in
-    /// one (`Accel::MIXES_SMALL_OCTANTS`).
+    /// one (`Accel::MIXES_SMALL_OCTANTS`), unless closest-hit rays show that they pass many
+    /// surfaces ([`BatchOrdering::ByOctant`]).
     pub ordering: BatchOrdering,
     /// Split large batches over rayon's current thread pool (on the calling thread if no thread
     /// can be started).

@@ -3,6 +3,7 @@
 
 use super::group::Slots;
 use super::lanes::Lanes;
+use super::mixing::MixingJudge;
 use super::rays::PreparedRays;
 use crate::hit::Hit;
 
@@ -21,4 +22,6 @@ pub(crate) struct BatchScratch {
     pub occluded: Vec<bool>,
     /// Each ray's group while grouping.
     pub keys: Vec<u8>,
+    /// Whether this thread's next closest-hit chunk mixes small octants.
+    pub mixing: MixingJudge,
 }

@@ -15,6 +15,7 @@
 use crate::accel::{Accel, RayStream, Storage, StreamLayout};
 use crate::batch::chunks::for_each_chunk;
 use crate::batch::group::{self, Grouping, Groups, Slots};
+use crate::batch::mixing::{JudgedChunk, TallyingClosest};
 use crate::batch::options::BatchOptions;
 use crate::batch::partition::Partitioner;
 use crate::batch::scratch::BatchScratch;
@@ -98,13 +99,24 @@ struct Answers<'w> {
     slots: &'w Slots,
     best: &'w mut Vec<Hit>,
     occluded: &'w mut Vec<bool>,
+    /// The thread's choice of mixing, when it grouped this chunk (`crate::batch::mixing`).
+    judged: Option<JudgedChunk<'w>>,
+}
+
+/// Which queries let the thread's choice group their chunks (`crate::batch::mixing`).
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum Judged {
+    /// Closest hit: the rays' order among surfaces matters, and its walk counts its hits.
+    Yes,
+    /// Any hit and all hits: always faster mixed (any hit: the twenty-third session's table).
+    No,
 }
 
 /// Prepares `rays` in this thread's workspace and runs `f` on them and on the workspace's
 /// answer arrays.
 fn with_chunk<A: Accel, R>(
     (rays, cull): (&[Ray], Option<Aabb>),
-    options: &BatchOptions,
+    (options, judged): (&BatchOptions, Judged),
     partitioner: Partitioner,
     f: impl FnOnce(Chunk<'_, A::Scratch>, Answers<'_>) -> R,
 ) -> R {
@@ -117,9 +129,17 @@ fn with_chunk<A: Accel, R>(
             best,
             occluded,
             keys,
+            mixing,
         } = batch;
         let sorting = (&mut *keys, &mut *slots);
-        let grouping = Grouping::new(options.ordering, A::GROUP_BY_OCTANT, A::MIXES_SMALL_OCTANTS);
+        let structure = (A::GROUP_BY_OCTANT, A::MIXES_SMALL_OCTANTS);
+        let judged = (judged == Judged::Yes && Grouping::asks_judge(options.ordering, structure))
+            .then(|| JudgedChunk {
+                mixed: mixing.mixes(),
+                judge: mixing,
+            });
+        let mix = judged.as_ref().is_none_or(|chunk| chunk.mixed);
+        let grouping = Grouping::new(options.ordering, structure, mix);
         let (groups, storage) = match A::STREAM_LAYOUT {
             StreamLayout::Lanes => (
                 group::prepare(rays, (grouping, cull), lanes, sorting),
@@ -134,6 +154,7 @@ fn with_chunk<A: Accel, R>(
             slots,
             best,
             occluded,
+            judged,
         };
         let chunk = Chunk {
             groups,
@@ -153,12 +174,12 @@ fn with_chunk<A: Accel, R>(
 fn for_each_prepared_chunk<A: Accel, T: Send>(
     accel: &A,
     (rays, out): (&[Ray], &mut [T]),
-    options: &BatchOptions,
+    options: (&BatchOptions, Judged),
     f: impl Fn(usize, &mut [T], Chunk<'_, A::Scratch>, Answers<'_>) + Sync,
 ) {
-    let partitioner = options.partition.checked();
+    let partitioner = options.0.partition.checked();
     let cull = accel.cull_bounds();
-    let chunking = (options, A::DEFAULT_MAX_CHUNK);
+    let chunking = (options.0, A::DEFAULT_MAX_CHUNK);
     for_each_chunk(rays, out, chunking, |offset, rays, out| {
         with_chunk::<A, _>((rays, cull), options, partitioner, |chunk, answers| {
             f(offset, out, chunk, answers)
@@ -191,18 +212,33 @@ pub trait BatchQueries: Accel {
         for_each_prepared_chunk(
             self,
             (rays, hits),
-            options,
+            (options, Judged::Yes),
             |_, hits, mut chunk, answers| {
-                let Answers { slots, best, .. } = answers;
+                let Answers {
+                    slots,
+                    best,
+                    judged,
+                    ..
+                } = answers;
                 // "No hit before +inf": a hit at the ray's own `tmax` still wins (`Closest`
                 // compares it with the record's `tmax`, then by the tie rule with this), so the
                 // answers equal those of `Hit::none_before(ray.tmax)`, without a gather.
                 best.clear();
                 best.resize(slots.dead() + 1, Hit::none_before(f32::INFINITY));
-                chunk.trace(self, &mut Closest { best });
+                let mut visitor = TallyingClosest {
+                    closest: Closest { best },
+                    reported: 0,
+                };
+                chunk.trace(self, &mut visitor);
+                let reported = visitor.reported;
                 // In position order: sequential writes (invalid rays have no slot: a miss).
+                let mut hitting = 0;
                 for (out, &slot) in hits.iter_mut().zip(&slots.of_position) {
                     *out = best.get(slot as usize).and_then(|hit| hit.found());
+                    hitting += u64::from(out.is_some());
+                }
+                if let Some(judged) = judged {
+                    judged.record(reported, hitting);
                 }
             },
         );
@@ -232,7 +268,7 @@ pub trait BatchQueries: Accel {
         for_each_prepared_chunk(
             self,
             (rays, occluded),
-            options,
+            (options, Judged::No),
             |_, out, mut chunk, answers| {
                 let Answers {
                     slots, occluded, ..
@@ -273,7 +309,7 @@ pub trait BatchQueries: Accel {
         for_each_prepared_chunk(
             self,
             (rays, &mut slots),
-            options,
+            (options, Judged::No),
             |offset, _, mut chunk, answers| {
                 let positions = &answers.slots.positions;
                 chunk.trace(
