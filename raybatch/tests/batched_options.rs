@@ -22,7 +22,7 @@ use common::rays::{every_nth, hard_rays};
 use common::zoo::all_structures;
 use raybatch::{BatchError, BatchOrdering, Interleave, Kernel, PartitionKernel, Ray};
 
-/// Every structure with every one of the 1728 combinations of kernel, batch ordering, partition
+/// Every structure with every one of the 2304 combinations of kernel, batch ordering, partition
 /// kernel, `single_ray_below`, `max_chunk`, threads and interleaving, on a sample of the hard rays of an
 /// icosphere with duplicate triangles.
 #[test]
@@ -37,7 +37,7 @@ fn every_option_combination_on_every_tree() {
 
 /// All the hard rays (aimed at every vertex and edge, axis-parallel with signed zeros, windows,
 /// segments, invalid rays) on a plain icosphere and two with duplicate triangles, every
-/// structure: six of the 1728 combinations per structure (different ones for each structure), plus one with the default `min_chunk` (4096) and `min_batch` (32).
+/// structure: six of the 2304 combinations per structure (different ones for each structure), plus one with the default `min_chunk` (4096) and `min_batch` (32).
 #[test]
 fn hard_rays_on_icospheres() {
     for (name, mesh) in [

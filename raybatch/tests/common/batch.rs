@@ -88,7 +88,7 @@ impl Combo {
 }
 
 /// Every combination of kernel, batch ordering, partition kernel, `single_ray_below`,
-/// `max_chunk`, threads and interleaving (1728), with the given `min_chunk` and `min_batch`.
+/// `max_chunk`, threads and interleaving (2304), with the given `min_chunk` and `min_batch`.
 pub fn all_combos(min_chunk: usize, min_batch: usize) -> Vec<Combo> {
     let mut out = Vec::new();
     for kernel in Kernel::ALL {
@@ -116,13 +116,13 @@ pub fn all_combos(min_chunk: usize, min_batch: usize) -> Vec<Combo> {
             }
         }
     }
-    assert_eq!(out.len(), 1728);
+    assert_eq!(out.len(), 2304);
     out
 }
 
 /// The `per_tree` combinations structure number `tree` of the zoo gets: with `per_tree = 32`,
-/// the zoo's first 54 structures together get each of the 1728 combinations exactly once
-/// (7919 is prime to 1728, so `k -> 7919 k mod 1728` is a permutation), in a scrambled
+/// the zoo's first 72 structures together get each of the 2304 combinations exactly once
+/// (7919 is prime to 2304, so `k -> 7919 k mod 2304` is a permutation), in a scrambled
 /// assignment; further structures get them again, in other assignments.
 pub fn spread_combos(all: &[Combo], tree: usize, per_tree: usize) -> Vec<Combo> {
     (0..per_tree)
