@@ -1,74 +1,125 @@
 //! Whether a thread's closest-hit chunks walk their small octants mixed: chosen from the hits
-//! the last chunks reported.
+//! the chunks' walks reported.
 //!
 //! The wide trees walk the rays of the octants that hold less than a quarter of a chunk as one
 //! mixed stream (`Accel::MIXES_SMALL_OCTANTS`): for incoherent rays one long stream shares
 //! more nodes than eight short ones. But a mixed stream meets each node's children in slot
-//! order, not nearest first, and a closest-hit ray that passes many surfaces before its
-//! nearest one then finds the far ones first, each hit replacing the last. Street-level
-//! sightlines in the city do (twenty-third session, `bvh4`, ratios to Embree): mixed, 0.74 in
-//! one call and 0.52 in calls of 4,096 rays; every octant apart, 1.93 and 1.21. Every other ray
-//! set measured runs faster mixed (incoherent, short, outside-in rays on four meshes).
+//! order, not nearest first, so a closest-hit ray may find far surfaces before its nearest
+//! one, each hit replacing the last. Street-level sightlines in the city pass many buildings
+//! (twenty-third session, `bvh4`, ratios to Embree): mixed, 0.74 in one call and 0.52 in calls
+//! of 4,096 rays; every octant apart, 1.93 and 1.21. Segments and rays from outside an object
+//! meet its near and far sides: in chunks of up to 16k rays they run 2-15% faster apart
+//! (fandisk and bunny, line of sight and outside-in rays), in larger ones about as fast or
+//! slower. Incoherent rays from inside, short rays and camera rays run faster mixed.
 //!
 //! The count that tells them apart costs one add per reported hit: the hits a chunk's walk
-//! reported per ray that has a hit. Walked mixed, the city's sightlines report 8.3-9.9 (calls
-//! of 4,096 rays; one call); every other set 1.0-1.94; walked octant by octant, every set
-//! 1.0-1.41. So a chunk walked mixed that reports more than [`REPORTED_PER_HIT`] sends the
-//! thread's next [`SEPARATE_CHUNKS`] chunks octant by octant, and the chunk after them mixed
-//! again, to look whether the rays have changed. Only the default ordering
-//! ([`super::BatchOrdering::ByOctant`]) asks; the state is per thread (in its workspace), so
-//! rays that a thread answers decide for it, and no answer ever depends on it.
-
-/// Reported hits per ray with a hit above which a mixed chunk's rays are judged to pass many
-/// surfaces (between 1.94 and 8.3, the measured sets' worst and the sightlines', above).
-const REPORTED_PER_HIT: u64 = 3;
-
-/// Chunks a thread walks octant by octant before it tries mixing again. A probe in the bad
-/// case costs one slow chunk in `SEPARATE_CHUNKS + 1`: on the city's sightlines in calls of
-/// 4,096 rays (one chunk a call), 1.21 -> about 1.16 of Embree.
-const SEPARATE_CHUNKS: u32 = 32;
-
-/// Fewer rays with a hit than this in a chunk say nothing: the chunk does not change the
-/// choice.
-const MIN_HITTING_RAYS: u64 = 64;
+//! reported per ray that has a hit. Walked mixed, the city's sightlines report 8.3-9.9, line
+//! of sight and outside-in rays on the meshes 1.52-1.60, every other set 1.0-1.94 (the city's
+//! incoherent rays the most); walked apart, 1.0-1.02 on the meshes, 1.22-1.41 in the city. So
+//! a chunk walks apart when the last chunk walked mixed reported more than
+//! [`MANY_REPORTED`] hits per hit, or, in chunks of at most [`SHORT_CHUNK`] rays, more than
+//! [`MIXING_EXCESS`] times what the last chunk walked apart reported (line of sight and
+//! outside-in 1.52-1.59x, incoherent 1.22-1.27x, the city's incoherent and short rays
+//! 1.02-1.13x). Every [`PROBE_EVERY`] chunks the thread walks one chunk the other way, to keep
+//! both counts fresh when the rays change. Only the default ordering
+//! ([`super::BatchOrdering::ByOctant`]) asks; the counts are per thread (in its workspace), so
+//! the rays a thread answers decide for it, and no answer ever depends on them.
 
 use crate::hit::{Closest, Hit, Visitor};
 
-/// One thread's choice (see the module docs); starts mixed.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+/// Reported hits per hitting ray of a mixed chunk above which its rays pass many surfaces
+/// (between 1.94 and 8.3: every measured set's most and the city sightlines' least).
+const MANY_REPORTED: f32 = 3.0;
+
+/// How many times the apart count the mixed count must be for a short chunk to walk apart
+/// (between 1.27 and 1.52, see the module docs).
+const MIXING_EXCESS: f32 = 1.4;
+
+/// Chunks of at most this many rays are short: their mixed streams gain less from sharing
+/// nodes (calls of 4,096 / 8,192 / 16,384 / 32,768 rays, time mixed over apart: line of sight
+/// 1.10-1.15 / 1.08 / 1.05-1.08 / 1.04-1.06, outside-in 1.09-1.11 / 1.02-1.07 / 1.02-1.07 /
+/// 0.97-0.98; fandisk and bunny, `bvh4`, best of 2 x 3 passes).
+const SHORT_CHUNK: usize = 16_384;
+
+/// Chunks between two walked against the judge's preference. A probe costs one chunk walked
+/// the slow way in `PROBE_EVERY + 1`: on the city's sightlines in calls of 4,096 rays (one
+/// chunk a call), about 1.21 -> 1.16 of Embree; on incoherent rays about 0.3%.
+const PROBE_EVERY: u32 = 32;
+
+/// Fewer rays with a hit than this in a chunk say nothing: its count is not kept.
+const MIN_HITTING_RAYS: u64 = 64;
+
+/// One thread's counts (see the module docs). It starts mixed, and walks the chunk after its
+/// first counted one apart, to have both counts early.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub(crate) struct MixingJudge {
-    /// Chunks still to walk octant by octant; 0: mix.
-    separate_left: u32,
+    /// Reported hits per hitting ray of the last counted chunk walked mixed.
+    mixed: Option<f32>,
+    /// The same for the last counted chunk walked apart.
+    apart: Option<f32>,
+    /// Chunks walked since the last probe.
+    since_probe: u32,
+}
+
+/// How the judge has a chunk walked.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) struct Choice {
+    /// The chunk's small octants share one stream.
+    pub(crate) mixed: bool,
+    /// Against the judge's preference, to refresh the other count.
+    pub(crate) probe: bool,
 }
 
 impl MixingJudge {
-    /// Whether the next chunk should walk its small octants mixed.
-    pub(crate) fn mixes(&self) -> bool {
-        self.separate_left == 0
+    /// Whether the counts so far say that a chunk of `rays` rays walks faster apart.
+    pub(crate) fn prefers_apart(&self, rays: usize) -> bool {
+        match (self.mixed, self.apart) {
+            (Some(mixed), _) if mixed > MANY_REPORTED => true,
+            (Some(mixed), Some(apart)) => rays <= SHORT_CHUNK && mixed > MIXING_EXCESS * apart,
+            _ => false,
+        }
     }
 
-    /// Records a chunk walked mixed or not (as [`MixingJudge::mixes`] said) whose walk reported
-    /// `reported` hits to its rays, `hitting` of which have a hit.
-    pub(crate) fn record(&mut self, mixed: bool, reported: u64, hitting: u64) {
-        if !mixed {
-            self.separate_left = self.separate_left.saturating_sub(1);
-        } else if hitting >= MIN_HITTING_RAYS && reported > REPORTED_PER_HIT * hitting {
-            self.separate_left = SEPARATE_CHUNKS;
+    /// How the next chunk, of `rays` rays, walks.
+    pub(crate) fn choose(&self, rays: usize) -> Choice {
+        let apart = self.prefers_apart(rays);
+        let first_probe = !apart && self.mixed.is_some() && self.apart.is_none();
+        let probe = first_probe || self.since_probe >= PROBE_EVERY;
+        Choice {
+            mixed: apart == probe,
+            probe,
+        }
+    }
+
+    /// Records a chunk walked as `choice` says whose walk reported `reported` hits to its
+    /// rays, `hitting` of which have a hit.
+    pub(crate) fn record(&mut self, choice: Choice, reported: u64, hitting: u64) {
+        self.since_probe = if choice.probe {
+            0
+        } else {
+            self.since_probe.saturating_add(1)
+        };
+        if hitting >= MIN_HITTING_RAYS {
+            let count = Some(reported as f32 / hitting as f32);
+            if choice.mixed {
+                self.mixed = count;
+            } else {
+                self.apart = count;
+            }
         }
     }
 }
 
-/// A chunk grouped as the judge said: told the chunk's counts after its walk.
+/// A chunk grouped as the judge chose: told the chunk's counts after its walk.
 pub(crate) struct JudgedChunk<'w> {
     pub(crate) judge: &'w mut MixingJudge,
-    /// The chunk's small octants were walked mixed.
-    pub(crate) mixed: bool,
+    pub(crate) choice: Choice,
 }
 
 impl JudgedChunk<'_> {
     /// Hands the judge the chunk's counts ([`MixingJudge::record`]).
     pub(crate) fn record(self, reported: u64, hitting: u64) {
-        self.judge.record(self.mixed, reported, hitting);
+        self.judge.record(self.choice, reported, hitting);
     }
 }
 
@@ -91,30 +142,94 @@ mod tests {
     use super::*;
     use crate::test_support::TestRng;
 
-    /// Mixed until a mixed chunk reports many hits per hitting ray; then `SEPARATE_CHUNKS`
-    /// chunks apart, and a mixed one again, which decides anew. Chunks with few hitting rays
-    /// change nothing.
+    /// Walks `chunks` chunks of `rays` rays whose walks report `mixed` hits per hitting ray
+    /// when mixed and `apart` when apart (1,000 hitting rays each); returns how many walked
+    /// mixed.
+    fn walk(
+        judge: &mut MixingJudge,
+        chunks: usize,
+        rays: usize,
+        (mixed, apart): (f32, f32),
+    ) -> usize {
+        let mut walked_mixed = 0;
+        for _ in 0..chunks {
+            let choice = judge.choose(rays);
+            let per_hit = if choice.mixed { mixed } else { apart };
+            judge.record(choice, (per_hit * 1_000.0) as u64, 1_000);
+            walked_mixed += usize::from(choice.mixed);
+        }
+        walked_mixed
+    }
+
+    /// The first chunk walks mixed and the second apart (a probe); then the preference holds
+    /// but for one probe every `PROBE_EVERY + 1` chunks. Chunks that count nothing (too few
+    /// hitting rays) delay the first probe.
     #[test]
-    fn many_reported_hits_separate_the_octants_for_a_while() {
+    fn probes_come_second_and_then_every_so_often() {
         let mut judge = MixingJudge::default();
-        assert!(judge.mixes());
-        judge.record(true, 1_940, 1_000);
-        assert!(judge.mixes(), "1.94 reported hits per hit: stays mixed");
-        judge.record(true, 600, 63);
-        assert!(judge.mixes(), "too few hitting rays to judge");
-        judge.record(true, 3_001, 1_000);
-        for _ in 0..SEPARATE_CHUNKS {
-            assert!(!judge.mixes());
-            judge.record(false, 1_000, 1_000);
+        let first = judge.choose(4_096);
+        assert!(first.mixed && !first.probe);
+        judge.record(first, 10, 10);
+        assert_eq!(judge.choose(4_096), first, "nothing counted yet");
+        judge.record(first, 1_200, 1_000);
+        let second = judge.choose(4_096);
+        assert!(!second.mixed && second.probe);
+        judge.record(second, 1_000, 1_000);
+        let n = 10 * (PROBE_EVERY as usize + 1);
+        assert_eq!(
+            walk(&mut judge, n, 4_096, (1.2, 1.0)),
+            n - 10,
+            "mixed but ten probes"
+        );
+    }
+
+    /// Many reported hits per hit walked mixed: apart, whatever the chunk length, but for the
+    /// probes; the rays changing back: mixed again after the next probe.
+    #[test]
+    fn many_reported_hits_walk_apart() {
+        for rays in [4_096, 65_536] {
+            let mut judge = MixingJudge::default();
+            let n = 10 * (PROBE_EVERY as usize + 1);
+            assert_eq!(walk(&mut judge, 2, rays, (8.3, 1.22)), 1);
+            assert!(judge.prefers_apart(rays));
+            assert_eq!(
+                walk(&mut judge, n, rays, (8.3, 1.22)),
+                10,
+                "apart but ten probes"
+            );
+            walk(&mut judge, PROBE_EVERY as usize + 1, rays, (1.2, 1.0));
+            assert!(!judge.prefers_apart(rays), "{rays} rays");
         }
-        assert!(judge.mixes(), "a mixed chunk again, to look");
-        judge.record(true, 8_000, 1_000);
-        assert!(!judge.mixes(), "the rays still pass many surfaces");
-        for _ in 0..SEPARATE_CHUNKS {
-            judge.record(false, 0, 0);
+    }
+
+    /// Mixing multiplying the reported hits by more than `MIXING_EXCESS`: apart in short
+    /// chunks only; by less (incoherent rays, the city's): mixed.
+    #[test]
+    fn a_mixing_excess_walks_short_chunks_apart() {
+        for ((mixed, apart), rays, expect_apart) in [
+            ((1.55, 1.0), 4_096, true),
+            ((1.55, 1.0), SHORT_CHUNK, true),
+            ((1.55, 1.0), 65_536, false),
+            ((1.27, 1.0), 4_096, false),
+            ((1.60, 1.41), 4_096, false),
+            ((1.94, 1.41), 65_536, false),
+        ] {
+            let mut judge = MixingJudge::default();
+            walk(&mut judge, 3, rays, (mixed, apart));
+            let case = format!("{mixed} / {apart}, {rays} rays");
+            assert_eq!(judge.prefers_apart(rays), expect_apart, "{case}");
         }
-        judge.record(true, 1_200, 1_000);
-        assert!(judge.mixes(), "the rays changed: mixed stays");
+    }
+
+    /// Chunks with fewer than `MIN_HITTING_RAYS` hitting rays leave the counts alone.
+    #[test]
+    fn few_hitting_rays_count_nothing() {
+        let mut judge = MixingJudge::default();
+        let choice = judge.choose(4_096);
+        judge.record(choice, 600, MIN_HITTING_RAYS - 1);
+        assert_eq!(judge.mixed, None);
+        judge.record(choice, 600, MIN_HITTING_RAYS);
+        assert!(judge.mixed.is_some());
     }
 
     /// 64 walls, squares across x = 1..=64 (two triangles each).
@@ -167,19 +282,31 @@ mod tests {
     }
 
     /// Sightlines across the row of walls from either end, walked mixed, report a hit per
-    /// wall the slot order meets before the nearest: the thread's next chunks keep the octants
-    /// apart. Segments that reach one wall each leave the choice mixed. Answers equal the
+    /// wall the slot order meets before the nearest: after the first chunks the thread prefers
+    /// the octants apart. Segments that reach one wall each leave it mixed. Answers equal the
     /// one-ray answers throughout.
     #[test]
-    fn sightlines_through_many_walls_separate_the_octants() {
+    fn sightlines_through_many_walls_walk_apart() {
         let tree = walls();
         let short = rays_along_x(4_096, |k| (k % 63) as f32 + 1.5, 1.0);
-        cast_checked(&tree, &short);
-        assert!(thread_judge().mixes(), "one wall per segment: mixed");
+        for _ in 0..3 {
+            cast_checked(&tree, &short);
+        }
+        assert!(
+            !thread_judge().prefers_apart(4_096),
+            "one wall per segment: mixed"
+        );
         let across = rays_along_x(4_096, |k| if k % 2 == 0 { 0.0 } else { 65.0 }, 100.0);
-        cast_checked(&tree, &across);
-        assert!(!thread_judge().mixes(), "many walls per sightline: apart");
-        cast_checked(&tree, &across);
-        assert!(!thread_judge().mixes(), "apart for a while");
+        for _ in 0..3 {
+            cast_checked(&tree, &across);
+        }
+        assert!(
+            thread_judge().prefers_apart(4_096),
+            "many walls per sightline: apart"
+        );
+        assert!(
+            thread_judge().prefers_apart(1 << 20),
+            "whatever the chunk length"
+        );
     }
 }

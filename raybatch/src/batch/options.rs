@@ -12,9 +12,10 @@ pub enum BatchOrdering {
     /// wide trees keep apart only the octants holding a quarter of a chunk and walk the
     /// others' rays together (`Accel::MIXES_SMALL_OCTANTS`: for incoherent rays one long
     /// stream shares more nodes than eight short ones), except for closest-hit rays that
-    /// pass many surfaces before their nearest one: once a chunk's walk reports more than
-    /// three hits per ray with a hit, the thread keeps every octant apart for its next 32
-    /// chunks (as [`Self::SeparateOctants`]), then looks again (`batch::mixing` says why).
+    /// meet far surfaces before their nearest one in a mixed stream: the thread counts the
+    /// hits its chunks' walks report per hitting ray, mixed and apart, and walks apart (as
+    /// [`Self::SeparateOctants`]) when mixing reports more than three, or, in chunks of at
+    /// most 16,384 rays, 1.4 times as many as apart (`batch::mixing` says why).
     #[default]
     ByOctant,
     /// Group by direction octant, every octant apart however few rays it holds, so that every

@@ -135,10 +135,10 @@ fn with_chunk<A: Accel, R>(
         let structure = (A::GROUP_BY_OCTANT, A::MIXES_SMALL_OCTANTS);
         let judged = (judged == Judged::Yes && Grouping::asks_judge(options.ordering, structure))
             .then(|| JudgedChunk {
-                mixed: mixing.mixes(),
+                choice: mixing.choose(rays.len()),
                 judge: mixing,
             });
-        let mix = judged.as_ref().is_none_or(|chunk| chunk.mixed);
+        let mix = judged.as_ref().is_none_or(|chunk| chunk.choice.mixed);
         let grouping = Grouping::new(options.ordering, structure, mix);
         let (groups, storage) = match A::STREAM_LAYOUT {
             StreamLayout::Lanes => (

@@ -157,8 +157,8 @@ pub struct QueryArgs {
     pub interleave: Interleave,
     /// With --batched, how the rays are grouped by direction (the same answers): by-octant
     /// (the wide trees walk the octants holding less than a quarter of a chunk as one
-    /// stream, unless closest-hit rays report many hits each: then every octant apart for a
-    /// while), separate-octants (every octant apart: every ray meets the children nearest
+    /// stream, unless closest-hit rays report many more hits each that way: then every
+    /// octant apart), separate-octants (every octant apart: every ray meets the children nearest
     /// first; faster for closest-hit rays that pass many surfaces, such as sightlines in a
     /// city), mixed-octants (by-octant without the choice: small octants always in one
     /// stream), unordered (one stream, children in a fixed order).
