@@ -109,6 +109,23 @@ impl Visitor for CountingClosest<'_> {
     }
 }
 
+/// [`Closest`] that counts the hits reported to it: what the batched closest-hit query's choice
+/// of grouping reads (`crate::batch::mixing`), one add per hit (no measurable time: fandisk and
+/// bunny, 1M incoherent rays, batched in one call and in calls of 4,096, within 1%).
+pub(crate) struct TallyingClosest<'a> {
+    pub(crate) closest: Closest<'a>,
+    /// Hits reported so far.
+    pub(crate) reported: u64,
+}
+
+impl Visitor for TallyingClosest<'_> {
+    #[inline(always)]
+    fn visit(&mut self, ray: u32, hit: Hit, tmax: &mut f32) {
+        self.reported += 1;
+        self.closest.visit(ray, hit, tmax);
+    }
+}
+
 /// The value of `tmax` that ends a ray (see [`Visitor`]).
 pub const RAY_DONE: f32 = f32::NEG_INFINITY;
 

@@ -48,17 +48,19 @@ impl Grouping {
     /// The grouping for a structure that wants octant groups (`by_octant`), mixing the small
     /// ones (`mix_small`), under the caller's `ordering`; `mix` is the thread's choice for
     /// [`BatchOrdering::ByOctant`] (see [`Grouping::asks_judge`]).
-    pub(crate) fn new(
-        ordering: BatchOrdering,
-        (by_octant, mix_small): (bool, bool),
-        mix: bool,
-    ) -> Self {
-        match (ordering, by_octant, mix_small) {
-            (BatchOrdering::Unordered, _, _) | (_, false, _) => Grouping::Unordered,
-            (BatchOrdering::SeparateOctants, true, _) | (_, true, false) => Grouping::ByOctant,
-            (BatchOrdering::MixedOctants, true, true) => Grouping::LargeOctants,
-            (BatchOrdering::ByOctant, true, true) if mix => Grouping::LargeOctants,
-            (BatchOrdering::ByOctant, true, true) => Grouping::ByOctant,
+    pub(crate) fn new(ordering: BatchOrdering, structure: (bool, bool), mix: bool) -> Self {
+        let (by_octant, mix_small) = structure;
+        if ordering == BatchOrdering::Unordered || !by_octant {
+            return Grouping::Unordered;
+        }
+        let mixes = match ordering {
+            BatchOrdering::MixedOctants => mix_small,
+            _ => Self::asks_judge(ordering, structure) && mix,
+        };
+        if mixes {
+            Grouping::LargeOctants
+        } else {
+            Grouping::ByOctant
         }
     }
 

@@ -9,8 +9,9 @@
 //! (twenty-third session, `bvh4`, ratios to Embree): mixed, 0.74 in one call and 0.52 in calls
 //! of 4,096 rays; every octant apart, 1.93 and 1.21. Segments and rays from outside an object
 //! meet its near and far sides: in chunks of up to 16k rays they run 2-15% faster apart
-//! (fandisk and bunny, line of sight and outside-in rays), in larger ones about as fast or
-//! slower. Incoherent rays from inside, short rays and camera rays run faster mixed.
+//! (fandisk and bunny, line of sight and outside-in rays), in chunks of 65,536 about as fast
+//! (line of sight) or slower (the bunny's outside-in rays). Incoherent rays from inside, short
+//! rays and camera rays run faster mixed.
 //!
 //! The count that tells them apart costs one add per reported hit: the hits a chunk's walk
 //! reported per ray that has a hit. Walked mixed, the city's sightlines report 8.3-9.9, line
@@ -20,12 +21,15 @@
 //! [`MANY_REPORTED`] hits per hit, or, in chunks of at most [`SHORT_CHUNK`] rays, more than
 //! [`MIXING_EXCESS`] times what the last chunk walked apart reported (line of sight and
 //! outside-in 1.52-1.59x, incoherent 1.22-1.27x, the city's incoherent and short rays
-//! 1.02-1.13x). Every [`PROBE_EVERY`] chunks the thread walks one chunk the other way, to keep
-//! both counts fresh when the rays change. Only the default ordering
-//! ([`super::BatchOrdering::ByOctant`]) asks; the counts are per thread (in its workspace), so
-//! the rays a thread answers decide for it, and no answer ever depends on them.
-
-use crate::hit::{Closest, Hit, Visitor};
+//! 1.02-1.13x). One chunk in every [`PROBE_EVERY`] + 1 walks the other way, to keep both
+//! counts fresh when the rays change (and the chunk after the first counted one, to have both
+//! early). Only the default ordering ([`super::BatchOrdering::ByOctant`]) asks.
+//!
+//! The counts are per thread (in its workspace), shared by every structure and call on it: a
+//! thread that alternates sightlines and incoherent rays, or two trees, judges from their mix
+//! until a probe catches up (a caller who knows its rays can name the grouping,
+//! [`super::BatchOrdering::SeparateOctants`] or [`super::BatchOrdering::MixedOctants`]). No
+//! answer ever depends on them: both groupings give the same answers, bit for bit.
 
 /// Reported hits per hitting ray of a mixed chunk above which its rays pass many surfaces
 /// (between 1.94 and 8.3: every measured set's most and the city sightlines' least).
@@ -80,15 +84,12 @@ impl MixingJudge {
         }
     }
 
-    /// How the next chunk, of `rays` rays, walks.
+    /// How the next chunk, of `rays` rays, walks: as preferred, or the other way for a probe.
     pub(crate) fn choose(&self, rays: usize) -> Choice {
         let apart = self.prefers_apart(rays);
-        let first_probe = !apart && self.mixed.is_some() && self.apart.is_none();
-        let probe = first_probe || self.since_probe >= PROBE_EVERY;
-        Choice {
-            mixed: apart == probe,
-            probe,
-        }
+        let probe = self.since_probe >= PROBE_EVERY;
+        let mixed = if probe { apart } else { !apart };
+        Choice { mixed, probe }
     }
 
     /// Records a chunk walked as `choice` says whose walk reported `reported` hits to its
@@ -99,14 +100,19 @@ impl MixingJudge {
         } else {
             self.since_probe.saturating_add(1)
         };
-        if hitting >= MIN_HITTING_RAYS {
-            let count = Some(reported as f32 / hitting as f32);
-            if choice.mixed {
-                self.mixed = count;
-            } else {
-                self.apart = count;
-            }
+        if hitting < MIN_HITTING_RAYS {
+            return;
         }
+        let count = reported as f32 / hitting as f32;
+        if !choice.mixed {
+            self.apart = Some(count);
+            return;
+        }
+        // The first count: the next chunk probes apart, unless mixing is already ruled out.
+        if self.mixed.is_none() && self.apart.is_none() && count <= MANY_REPORTED {
+            self.since_probe = PROBE_EVERY;
+        }
+        self.mixed = Some(count);
     }
 }
 
@@ -120,20 +126,6 @@ impl JudgedChunk<'_> {
     /// Hands the judge the chunk's counts ([`MixingJudge::record`]).
     pub(crate) fn record(self, reported: u64, hitting: u64) {
         self.judge.record(self.choice, reported, hitting);
-    }
-}
-
-/// [`Closest`] that counts the hits reported to it: the judge's count, one add per hit.
-pub(crate) struct TallyingClosest<'a> {
-    pub(crate) closest: Closest<'a>,
-    pub(crate) reported: u64,
-}
-
-impl Visitor for TallyingClosest<'_> {
-    #[inline(always)]
-    fn visit(&mut self, ray: u32, hit: Hit, tmax: &mut f32) {
-        self.reported += 1;
-        self.closest.visit(ray, hit, tmax);
     }
 }
 
@@ -212,13 +204,31 @@ mod tests {
             ((1.55, 1.0), 65_536, false),
             ((1.27, 1.0), 4_096, false),
             ((1.60, 1.41), 4_096, false),
-            ((1.94, 1.41), 65_536, false),
+            ((1.94, 1.41), 4_096, false),
         ] {
             let mut judge = MixingJudge::default();
             walk(&mut judge, 3, rays, (mixed, apart));
             let case = format!("{mixed} / {apart}, {rays} rays");
             assert_eq!(judge.prefers_apart(rays), expect_apart, "{case}");
         }
+    }
+
+    /// Chunks with too few hitting rays after the first count (the probe apart among them,
+    /// counting nothing) keep to the schedule: one probe every `PROBE_EVERY + 1` chunks.
+    #[test]
+    fn chunks_that_count_nothing_keep_the_schedule() {
+        let mut judge = MixingJudge::default();
+        let first = judge.choose(4_096);
+        judge.record(first, 1_200, 1_000);
+        let n = 10 * (PROBE_EVERY as usize + 1);
+        let mut apart = 0;
+        for _ in 0..n {
+            let choice = judge.choose(4_096);
+            judge.record(choice, 10, 10);
+            apart += usize::from(!choice.mixed);
+        }
+        assert_eq!(apart, 10, "{judge:?}");
+        assert_eq!(judge.apart, None);
     }
 
     /// Chunks with fewer than `MIN_HITTING_RAYS` hitting rays leave the counts alone.
@@ -292,10 +302,11 @@ mod tests {
         for _ in 0..3 {
             cast_checked(&tree, &short);
         }
-        assert!(
-            !thread_judge().prefers_apart(4_096),
-            "one wall per segment: mixed"
-        );
+        let judge = thread_judge();
+        assert!(!judge.prefers_apart(4_096), "one wall per segment: mixed");
+        for count in [judge.mixed, judge.apart] {
+            assert!(count.is_some_and(|c| (1.0..1.1).contains(&c)), "{judge:?}");
+        }
         let across = rays_along_x(4_096, |k| if k % 2 == 0 { 0.0 } else { 65.0 }, 100.0);
         for _ in 0..3 {
             cast_checked(&tree, &across);

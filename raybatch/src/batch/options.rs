@@ -14,8 +14,8 @@ pub enum BatchOrdering {
     /// stream shares more nodes than eight short ones), except for closest-hit rays that
     /// meet far surfaces before their nearest one in a mixed stream: the thread counts the
     /// hits its chunks' walks report per hitting ray, mixed and apart, and walks apart (as
-    /// [`Self::SeparateOctants`]) when mixing reports more than three, or, in chunks of at
-    /// most 16,384 rays, 1.4 times as many as apart (`batch::mixing` says why).
+    /// [`Self::SeparateOctants`]) when mixing reports many hits per hit, or, in short chunks,
+    /// many more than apart (`batch::mixing` has the rule and the measurements).
     #[default]
     ByOctant,
     /// Group by direction octant, every octant apart however few rays it holds, so that every
@@ -93,8 +93,8 @@ pub struct BatchOptions {
     /// How rays are grouped by direction. Structures that walk each ray alone (grids, the
     /// kd-tree: `Accel::GROUP_BY_OCTANT` is false) always get one group; the wide trees get
     /// the octants that hold a quarter of a chunk as their own groups and the others' rays in
-    /// one (`Accel::MIXES_SMALL_OCTANTS`), unless closest-hit rays show that they pass many
-    /// surfaces ([`BatchOrdering::ByOctant`]).
+    /// one (`Accel::MIXES_SMALL_OCTANTS`), unless the hits that closest-hit chunks report
+    /// say that their rays run faster with every octant apart ([`BatchOrdering::ByOctant`]).
     pub ordering: BatchOrdering,
     /// Split large batches over rayon's current thread pool (on the calling thread if no thread
     /// can be started).

@@ -15,12 +15,12 @@
 use crate::accel::{Accel, RayStream, Storage, StreamLayout};
 use crate::batch::chunks::for_each_chunk;
 use crate::batch::group::{self, Grouping, Groups, Slots};
-use crate::batch::mixing::{JudgedChunk, TallyingClosest};
+use crate::batch::mixing::JudgedChunk;
 use crate::batch::options::BatchOptions;
 use crate::batch::partition::Partitioner;
 use crate::batch::scratch::BatchScratch;
 use crate::geom::{Aabb, Kernel, MollerTrumbore, Ray, Watertight};
-use crate::hit::{Any, Closest, Every, Hit, Visitor};
+use crate::hit::{Any, Closest, Every, Hit, TallyingClosest, Visitor};
 use crate::query::single::RayQueries;
 use crate::workspace::Workspace;
 
@@ -93,8 +93,8 @@ impl<S> Chunk<'_, S> {
     }
 }
 
-/// The workspace's answer arrays for one chunk, by prepared slot (the streams' ray ids), and
-/// where each ray went.
+/// The workspace's answer arrays for one chunk, by prepared slot (the streams' ray ids), where
+/// each ray went, and the thread's choice of grouping if it made one for the chunk.
 struct Answers<'w> {
     slots: &'w Slots,
     best: &'w mut Vec<Hit>,
@@ -103,20 +103,23 @@ struct Answers<'w> {
     judged: Option<JudgedChunk<'w>>,
 }
 
-/// Which queries let the thread's choice group their chunks (`crate::batch::mixing`).
+/// Which query a chunk answers: only closest hit lets the thread's choice group its chunks
+/// (`crate::batch::mixing`).
 #[derive(Clone, Copy, PartialEq, Eq)]
-enum Judged {
-    /// Closest hit: the rays' order among surfaces matters, and its walk counts its hits.
-    Yes,
-    /// Any hit and all hits: always faster mixed (any hit: the twenty-third session's table).
-    No,
+enum Query {
+    /// The order in which a ray meets surfaces decides how many hits its walk reports, and
+    /// the walk counts them.
+    Closest,
+    /// Any hit (faster mixed on every set measured, the twenty-third session's table) and all
+    /// hits (every hit is reported whatever the order): always the default grouping.
+    Other,
 }
 
 /// Prepares `rays` in this thread's workspace and runs `f` on them and on the workspace's
 /// answer arrays.
 fn with_chunk<A: Accel, R>(
     (rays, cull): (&[Ray], Option<Aabb>),
-    (options, judged): (&BatchOptions, Judged),
+    (options, query): (&BatchOptions, Query),
     partitioner: Partitioner,
     f: impl FnOnce(Chunk<'_, A::Scratch>, Answers<'_>) -> R,
 ) -> R {
@@ -133,7 +136,7 @@ fn with_chunk<A: Accel, R>(
         } = batch;
         let sorting = (&mut *keys, &mut *slots);
         let structure = (A::GROUP_BY_OCTANT, A::MIXES_SMALL_OCTANTS);
-        let judged = (judged == Judged::Yes && Grouping::asks_judge(options.ordering, structure))
+        let judged = (query == Query::Closest && Grouping::asks_judge(options.ordering, structure))
             .then(|| JudgedChunk {
                 choice: mixing.choose(rays.len()),
                 judge: mixing,
@@ -174,16 +177,19 @@ fn with_chunk<A: Accel, R>(
 fn for_each_prepared_chunk<A: Accel, T: Send>(
     accel: &A,
     (rays, out): (&[Ray], &mut [T]),
-    options: (&BatchOptions, Judged),
+    (options, query): (&BatchOptions, Query),
     f: impl Fn(usize, &mut [T], Chunk<'_, A::Scratch>, Answers<'_>) + Sync,
 ) {
-    let partitioner = options.0.partition.checked();
+    let partitioner = options.partition.checked();
     let cull = accel.cull_bounds();
-    let chunking = (options.0, A::DEFAULT_MAX_CHUNK);
+    let chunking = (options, A::DEFAULT_MAX_CHUNK);
     for_each_chunk(rays, out, chunking, |offset, rays, out| {
-        with_chunk::<A, _>((rays, cull), options, partitioner, |chunk, answers| {
-            f(offset, out, chunk, answers)
-        })
+        with_chunk::<A, _>(
+            (rays, cull),
+            (options, query),
+            partitioner,
+            |chunk, answers| f(offset, out, chunk, answers),
+        )
     });
 }
 
@@ -212,7 +218,7 @@ pub trait BatchQueries: Accel {
         for_each_prepared_chunk(
             self,
             (rays, hits),
-            (options, Judged::Yes),
+            (options, Query::Closest),
             |_, hits, mut chunk, answers| {
                 let Answers {
                     slots,
@@ -268,7 +274,7 @@ pub trait BatchQueries: Accel {
         for_each_prepared_chunk(
             self,
             (rays, occluded),
-            (options, Judged::No),
+            (options, Query::Other),
             |_, out, mut chunk, answers| {
                 let Answers {
                     slots, occluded, ..
@@ -309,7 +315,7 @@ pub trait BatchQueries: Accel {
         for_each_prepared_chunk(
             self,
             (rays, &mut slots),
-            (options, Judged::No),
+            (options, Query::Other),
             |offset, _, mut chunk, answers| {
                 let positions = &answers.slots.positions;
                 chunk.trace(
