@@ -193,6 +193,17 @@ fn for_each_prepared_chunk<A: Accel, T: Send>(
     });
 }
 
+/// Writes each ray's closest hit from the chunk's answers by slot, in position order
+/// (sequential writes; invalid rays have no slot: a miss); returns how many rays have one.
+fn write_closest(hits: &mut [Option<Hit>], slots: &Slots, best: &[Hit]) -> u64 {
+    let mut hitting = 0;
+    for (out, &slot) in hits.iter_mut().zip(&slots.of_position) {
+        *out = best.get(slot as usize).and_then(|hit| hit.found());
+        hitting += u64::from(out.is_some());
+    }
+    hitting
+}
+
 /// The batched queries, for every [`Accel`]. Output slices must be as long as `rays`.
 pub trait BatchQueries: Accel {
     /// Closest hit of every ray (`hits[i]` for `rays[i]`), identical to
@@ -231,21 +242,21 @@ pub trait BatchQueries: Accel {
                 // answers equal those of `Hit::none_before(ray.tmax)`, without a gather.
                 best.clear();
                 best.resize(slots.dead() + 1, Hit::none_before(f32::INFINITY));
+                // Only a chunk the thread's choice grouped counts its hits (for the structures
+                // that never ask, this branch folds away).
+                let Some(judged) = judged else {
+                    chunk.trace(self, &mut Closest { best });
+                    write_closest(hits, slots, best);
+                    return;
+                };
                 let mut visitor = TallyingClosest {
                     closest: Closest { best },
                     reported: 0,
                 };
                 chunk.trace(self, &mut visitor);
                 let reported = visitor.reported;
-                // In position order: sequential writes (invalid rays have no slot: a miss).
-                let mut hitting = 0;
-                for (out, &slot) in hits.iter_mut().zip(&slots.of_position) {
-                    *out = best.get(slot as usize).and_then(|hit| hit.found());
-                    hitting += u64::from(out.is_some());
-                }
-                if let Some(judged) = judged {
-                    judged.record(reported, hitting);
-                }
+                let hitting = write_closest(hits, slots, best);
+                judged.record(reported, hitting);
             },
         );
         Ok(())
