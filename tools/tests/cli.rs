@@ -344,12 +344,7 @@ fn passes_and_batch_size_keep_the_output() {
         let wide = raybatch::AccelKind::from_name(tree).is_some_and(|k| k.is_wide());
         assert_eq!(json_int(&line, "wide_leaf"), wide.then_some(1), "{line}");
         // Every batch ordering: the same answers.
-        for ordering in [
-            "by-octant",
-            "separate-octants",
-            "mixed-octants",
-            "unordered",
-        ] {
+        for ordering in raybatch::BatchOrdering::ALL.map(raybatch::BatchOrdering::name) {
             let extra = [base.as_slice(), &["--batched", "--ordering", ordering]].concat();
             let (bytes, line) = query_ok(&dir, &mesh, &rays_path, &extra);
             assert!(bytes == expected, "{extra:?}: output differs");

@@ -46,32 +46,22 @@ pub(crate) enum Grouping {
 
 impl Grouping {
     /// The grouping for a structure that wants octant groups (`by_octant`), mixing the small
-    /// ones (`mix_small`), under the caller's `ordering`; `mix` is the thread's choice for
-    /// [`BatchOrdering::ByOctant`] (see [`Grouping::asks_judge`]).
-    pub(crate) fn new(ordering: BatchOrdering, structure: (bool, bool), mix: bool) -> Self {
-        let (by_octant, mix_small) = structure;
-        if ordering == BatchOrdering::Unordered || !by_octant {
-            return Grouping::Unordered;
-        }
-        let mixes = match ordering {
-            BatchOrdering::MixedOctants => mix_small,
-            _ => Self::asks_judge(ordering, structure) && mix,
-        };
-        if mixes {
-            Grouping::LargeOctants
-        } else {
-            Grouping::ByOctant
+    /// ones (`mix_small`), under the caller's `ordering`. For closest hit under the default
+    /// ordering the thread's choice may keep the small octants apart after all
+    /// ([`Grouping::asks_judge`]).
+    pub(crate) fn new(ordering: BatchOrdering, by_octant: bool, mix_small: bool) -> Self {
+        use BatchOrdering::{ByOctant, MixedOctants, Unordered};
+        match (ordering, by_octant, mix_small) {
+            (Unordered, _, _) | (_, false, _) => Grouping::Unordered,
+            (ByOctant | MixedOctants, true, true) => Grouping::LargeOctants,
+            _ => Grouping::ByOctant,
         }
     }
 
-    /// Whether the thread's choice (`crate::batch::mixing`) decides between
-    /// [`Grouping::LargeOctants`] and [`Grouping::ByOctant`]: the default ordering, for a
-    /// structure that mixes small octants.
-    pub(crate) fn asks_judge(
-        ordering: BatchOrdering,
-        (by_octant, mix_small): (bool, bool),
-    ) -> bool {
-        ordering == BatchOrdering::ByOctant && by_octant && mix_small
+    /// Whether the thread's choice (`crate::batch::mixing`) decides between this grouping and
+    /// [`Grouping::ByOctant`]: small octants mixed under the default ordering.
+    pub(crate) fn asks_judge(self, ordering: BatchOrdering) -> bool {
+        self == Grouping::LargeOctants && ordering == BatchOrdering::ByOctant
     }
 }
 
@@ -409,15 +399,12 @@ mod tests {
             (SeparateOctants, false, true, G::Unordered, G::Unordered),
             (ByOctant, false, true, G::Unordered, G::Unordered),
         ] {
-            let structure = (by_octant, mix_small);
             let case = format!("{ordering:?} {by_octant} {mix_small}");
-            assert_eq!(Grouping::new(ordering, structure, true), mixing, "{case}");
-            assert_eq!(
-                Grouping::new(ordering, structure, false),
-                separate,
-                "{case}"
-            );
-            let asks = Grouping::asks_judge(ordering, structure);
+            let grouping = Grouping::new(ordering, by_octant, mix_small);
+            assert_eq!(grouping, mixing, "{case}");
+            let asks = grouping.asks_judge(ordering);
+            let apart = if asks { G::ByOctant } else { grouping };
+            assert_eq!(apart, separate, "{case}");
             assert_eq!(asks, mixing != separate, "{case}");
         }
     }

@@ -65,15 +65,6 @@ pub(crate) struct MixingJudge {
     since_probe: u32,
 }
 
-/// How the judge has a chunk walked.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub(crate) struct Choice {
-    /// The chunk's small octants share one stream.
-    pub(crate) mixed: bool,
-    /// Against the judge's preference, to refresh the other count.
-    pub(crate) probe: bool,
-}
-
 impl MixingJudge {
     /// Whether the counts so far say that a chunk of `rays` rays walks faster apart.
     pub(crate) fn prefers_apart(&self, rays: usize) -> bool {
@@ -84,18 +75,22 @@ impl MixingJudge {
         }
     }
 
-    /// How the next chunk, of `rays` rays, walks: as preferred, or the other way for a probe.
-    pub(crate) fn choose(&self, rays: usize) -> Choice {
-        let apart = self.prefers_apart(rays);
-        let probe = self.since_probe >= PROBE_EVERY;
-        let mixed = if probe { apart } else { !apart };
-        Choice { mixed, probe }
+    /// Whether the next chunk walks against the preference, to refresh the other count.
+    fn probe_due(&self) -> bool {
+        self.since_probe >= PROBE_EVERY
     }
 
-    /// Records a chunk walked as `choice` says whose walk reported `reported` hits to its
-    /// rays, `hitting` of which have a hit.
-    pub(crate) fn record(&mut self, choice: Choice, reported: u64, hitting: u64) {
-        self.since_probe = if choice.probe {
+    /// Whether the next chunk, of `rays` rays, walks its small octants mixed: as preferred, or
+    /// the other way for a probe.
+    pub(crate) fn choose(&self, rays: usize) -> bool {
+        let apart = self.prefers_apart(rays);
+        if self.probe_due() { apart } else { !apart }
+    }
+
+    /// Records the chunk [`MixingJudge::choose`] was last asked about, walked `mixed` or not,
+    /// whose walk reported `reported` hits to its rays, `hitting` of which have a hit.
+    pub(crate) fn record(&mut self, mixed: bool, reported: u64, hitting: u64) {
+        self.since_probe = if self.probe_due() {
             0
         } else {
             self.since_probe.saturating_add(1)
@@ -104,7 +99,7 @@ impl MixingJudge {
             return;
         }
         let count = reported as f32 / hitting as f32;
-        if !choice.mixed {
+        if !mixed {
             self.apart = Some(count);
             return;
         }
@@ -119,13 +114,14 @@ impl MixingJudge {
 /// A chunk grouped as the judge chose: told the chunk's counts after its walk.
 pub(crate) struct JudgedChunk<'w> {
     pub(crate) judge: &'w mut MixingJudge,
-    pub(crate) choice: Choice,
+    /// The chunk's small octants share one stream.
+    pub(crate) mixed: bool,
 }
 
 impl JudgedChunk<'_> {
     /// Hands the judge the chunk's counts ([`MixingJudge::record`]).
     pub(crate) fn record(self, reported: u64, hitting: u64) {
-        self.judge.record(self.choice, reported, hitting);
+        self.judge.record(self.mixed, reported, hitting);
     }
 }
 
@@ -145,10 +141,10 @@ mod tests {
     ) -> usize {
         let mut walked_mixed = 0;
         for _ in 0..chunks {
-            let choice = judge.choose(rays);
-            let per_hit = if choice.mixed { mixed } else { apart };
-            judge.record(choice, (per_hit * 1_000.0) as u64, 1_000);
-            walked_mixed += usize::from(choice.mixed);
+            let mixes = judge.choose(rays);
+            let per_hit = if mixes { mixed } else { apart };
+            judge.record(mixes, (per_hit * 1_000.0) as u64, 1_000);
+            walked_mixed += usize::from(mixes);
         }
         walked_mixed
     }
@@ -160,12 +156,15 @@ mod tests {
     fn probes_come_second_and_then_every_so_often() {
         let mut judge = MixingJudge::default();
         let first = judge.choose(4_096);
-        assert!(first.mixed && !first.probe);
+        assert!(first && !judge.probe_due());
         judge.record(first, 10, 10);
-        assert_eq!(judge.choose(4_096), first, "nothing counted yet");
+        assert!(
+            judge.choose(4_096) && !judge.probe_due(),
+            "nothing counted yet"
+        );
         judge.record(first, 1_200, 1_000);
         let second = judge.choose(4_096);
-        assert!(!second.mixed && second.probe);
+        assert!(!second && judge.probe_due());
         judge.record(second, 1_000, 1_000);
         let n = 10 * (PROBE_EVERY as usize + 1);
         assert_eq!(
@@ -223,9 +222,9 @@ mod tests {
         let n = 10 * (PROBE_EVERY as usize + 1);
         let mut apart = 0;
         for _ in 0..n {
-            let choice = judge.choose(4_096);
-            judge.record(choice, 10, 10);
-            apart += usize::from(!choice.mixed);
+            let mixes = judge.choose(4_096);
+            judge.record(mixes, 10, 10);
+            apart += usize::from(!mixes);
         }
         assert_eq!(apart, 10, "{judge:?}");
         assert_eq!(judge.apart, None);

@@ -135,14 +135,17 @@ fn with_chunk<A: Accel, R>(
             mixing,
         } = batch;
         let sorting = (&mut *keys, &mut *slots);
-        let structure = (A::GROUP_BY_OCTANT, A::MIXES_SMALL_OCTANTS);
-        let judged = (query == Query::Closest && Grouping::asks_judge(options.ordering, structure))
-            .then(|| JudgedChunk {
-                choice: mixing.choose(rays.len()),
-                judge: mixing,
-            });
-        let mix = judged.as_ref().is_none_or(|chunk| chunk.choice.mixed);
-        let grouping = Grouping::new(options.ordering, structure, mix);
+        let grouping = Grouping::new(options.ordering, A::GROUP_BY_OCTANT, A::MIXES_SMALL_OCTANTS);
+        let asks = query == Query::Closest && grouping.asks_judge(options.ordering);
+        let judged = asks.then(|| JudgedChunk {
+            mixed: mixing.choose(rays.len()),
+            judge: mixing,
+        });
+        // The choice only ever keeps apart what the grouping would mix.
+        let grouping = match &judged {
+            Some(chunk) if !chunk.mixed => Grouping::ByOctant,
+            _ => grouping,
+        };
         let (groups, storage) = match A::STREAM_LAYOUT {
             StreamLayout::Lanes => (
                 group::prepare(rays, (grouping, cull), lanes, sorting),
@@ -242,8 +245,8 @@ pub trait BatchQueries: Accel {
                 // answers equal those of `Hit::none_before(ray.tmax)`, without a gather.
                 best.clear();
                 best.resize(slots.dead() + 1, Hit::none_before(f32::INFINITY));
-                // Only a chunk the thread's choice grouped counts its hits (for the structures
-                // that never ask, this branch folds away).
+                // Only a chunk the thread's choice grouped counts its hits (never the chunks of
+                // a structure that does not mix octants).
                 let Some(judged) = judged else {
                     chunk.trace(self, &mut Closest { best });
                     write_closest(hits, slots, best);
