@@ -4,10 +4,11 @@
 //!
 //! Leaves address their triangles as ranges of slots, so a leaf's triangles are contiguous here.
 //! Reading one through the mesh alone takes three dependent loads (id, then indices, then
-//! vertices); the index copy starts the chain at the indices (12 bytes per triangle), the
-//! corner copy reads the corners from one contiguous block (36 bytes per triangle). The index
-//! copy keeps each slot's id beside its indices, so that a hit's id comes with them. Every tree
-//! built from the SAH builder keeps one of these.
+//! vertices); the index copy starts the chain at the indices, the corner copy reads the
+//! corners from one contiguous block (36 bytes per triangle). The index copy keeps each slot's
+//! id beside its indices, so that a hit's id comes with them: 12 bytes a slot, the indices packed
+//! to 21 bits (meshes of more than 2^21 vertices get no index copy).
+//! Every tree built from the SAH builder keeps one of these.
 
 use std::sync::Arc;
 
@@ -28,7 +29,9 @@ pub enum LeafCopy {
     Auto,
     /// Nothing: each triangle is read through its id and the mesh's index array.
     Nothing,
-    /// Each triangle's three vertex indices (12 bytes per triangle).
+    /// Each triangle's three vertex indices with its id: 12 bytes per triangle in all, the
+    /// indices packed to 21 bits. Meshes of more than 2^21 vertices, whose indices do not
+    /// pack, copy nothing.
     Indices,
     /// Each triangle's corners (36 bytes per triangle).
     Corners,
@@ -72,24 +75,61 @@ impl LeafCopy {
 enum Slots {
     /// The ids alone: each triangle is read through the mesh.
     Ids(Vec<u32>),
-    /// Each slot's vertex indices and id together (see [`IndexedSlot`]).
-    IndicesAndId(Vec<IndexedSlot>),
+    /// Each slot's vertex indices, packed, and id together (see [`PackedSlot`]).
+    PackedIndicesAndId(Vec<PackedSlot>),
     /// The ids, and each slot's corners.
     IdsAndCorners(Vec<u32>, Vec<[Vec3; 3]>),
 }
 
-/// A slot of the index copy: its triangle's vertex indices, then its id, in one aligned
-/// 16-byte block, so that the read that starts a triangle's chain brings its id too. The same
-/// 16 bytes a slot as the ids and copied indices kept in two arrays, whose ids cost a miss of
-/// their own: against them, per `bvh8` bunny ray, 13% fewer misses of a 1 MiB L2 and 5% fewer
-/// of L1 (callgrind's cache model, 100k incoherent rays), 0.8% fewer instructions and
-/// 0.94-0.97x the time (alternated, best of 9 x 3 passes, `bvh8` and `bvh4`; no change on the
-/// fandisk and the teapot, whose leaves fit in L2).
+/// A slot of the index copy: its triangle's three vertex indices, 21 bits each in one 64-bit
+/// word (two `u32` halves, so that a slot needs 4-byte alignment only), then its id, so that
+/// the read that starts a triangle's chain brings its id too. 12 bytes a slot.
+///
+/// Measured (1M incoherent rays, one thread, best of 5 alternated runs of 3 passes; bunny and
+/// city, `bvh4` and `bvh8` per ray): 0.96-1.00x the time of the 16-byte slot it replaced
+/// (indices whole, id beside them), 1.4% more instructions (bunny `bvh4`, callgrind), 4 bytes
+/// a triangle less: `bvh8` on the city 39.6 -> 35.6 B/tri, under the full binary tree's 38.5.
+/// Keeping the 16-byte slot for meshes whose indices do not pack, as a fourth kind of copy,
+/// cost 5% more instructions on every mesh (the match on the copy in each triangle read), so
+/// those meshes (more than 2^21 vertices) read their triangles through the mesh instead.
 #[derive(Clone, Copy, Debug)]
-#[repr(C, align(16))]
-struct IndexedSlot {
-    indices: [u32; 3],
+#[repr(C)]
+struct PackedSlot {
+    indices: [u32; 2],
     id: u32,
+}
+
+impl PackedSlot {
+    /// Bits of each vertex index.
+    const INDEX_BITS: u32 = 21;
+    /// The largest vertex count whose indices fit.
+    const MAX_VERTICES: usize = 1 << Self::INDEX_BITS;
+    const INDEX_MASK: u64 = (1 << Self::INDEX_BITS) - 1;
+
+    /// Triangle `id`'s slot; each of `indices` must be below [`PackedSlot::MAX_VERTICES`].
+    fn new(indices: [u32; 3], id: u32) -> Self {
+        debug_assert!(indices.iter().all(|&i| (i as usize) < Self::MAX_VERTICES));
+        let word = (0..3).fold(0, |word, k| {
+            word | u64::from(indices[k]) << (Self::INDEX_BITS * k as u32)
+        });
+        Self {
+            indices: [word as u32, (word >> 32) as u32],
+            id,
+        }
+    }
+
+    /// The vertex indices.
+    #[inline(always)]
+    fn indices(self) -> [u32; 3] {
+        let word = u64::from(self.indices[0]) | u64::from(self.indices[1]) << 32;
+        [0, 1, 2].map(|k| ((word >> (Self::INDEX_BITS * k)) & Self::INDEX_MASK) as u32)
+    }
+
+    /// The triangle id.
+    #[inline(always)]
+    fn id(self) -> u32 {
+        self.id
+    }
 }
 
 /// A tree's leaf triangles (see the module docs).
@@ -111,14 +151,13 @@ impl LeafTriangles {
         let len = order.len();
         let slots = match copy {
             LeafCopy::Auto | LeafCopy::Nothing => Slots::Ids(order),
-            LeafCopy::Indices => {
+            LeafCopy::Indices if mesh.vertices().len() <= PackedSlot::MAX_VERTICES => {
                 let indices = mesh.triangles();
-                let with_id = |id: u32| IndexedSlot {
-                    indices: indices[id as usize],
-                    id,
-                };
-                Slots::IndicesAndId(order.into_iter().map(with_id).collect())
+                let packed = |id: u32| PackedSlot::new(indices[id as usize], id);
+                Slots::PackedIndicesAndId(order.into_iter().map(packed).collect())
             }
+            // Indices that do not pack: read through the mesh (see `PackedSlot`).
+            LeafCopy::Indices => Slots::Ids(order),
             LeafCopy::Corners => {
                 let corners = Self::corners_of(&mesh, &order);
                 Slots::IdsAndCorners(order, corners)
@@ -165,11 +204,12 @@ impl LeafTriangles {
                 let id = order[slot];
                 (id, self.mesh.triangle(id))
             }
-            Slots::IndicesAndId(indices) => {
+            Slots::PackedIndicesAndId(packed) => {
                 let vertices = self.mesh.vertices();
-                let IndexedSlot { indices, id } = indices[slot];
-                (id, indices.map(|i| vertices[i as usize]))
+                let packed = packed[slot];
+                (packed.id(), packed.indices().map(|i| vertices[i as usize]))
             }
+
             Slots::IdsAndCorners(order, corners) => (order[slot], corners[slot]),
         }
     }
@@ -179,7 +219,7 @@ impl LeafTriangles {
     pub(crate) fn id(&self, slot: u32) -> u32 {
         match &self.slots {
             Slots::Ids(order) | Slots::IdsAndCorners(order, _) => order[slot as usize],
-            Slots::IndicesAndId(indices) => indices[slot as usize].id,
+            Slots::PackedIndicesAndId(packed) => packed[slot as usize].id(),
         }
     }
 
@@ -200,13 +240,13 @@ impl LeafTriangles {
                 corners[first..end].iter().for_each(prefetch);
                 true
             }
-            (Slots::IndicesAndId(indices), 0) => {
-                indices[first..end].iter().for_each(prefetch);
+            (Slots::PackedIndicesAndId(packed), 0) => {
+                packed[first..end].iter().for_each(prefetch);
                 false
             }
-            (Slots::IndicesAndId(indices), _) => {
-                let corners = |slot: &IndexedSlot| mesh.prefetch_corners(&slot.indices);
-                indices[first..end].iter().for_each(corners);
+            (Slots::PackedIndicesAndId(packed), _) => {
+                let corners = |slot: &PackedSlot| mesh.prefetch_corners(&slot.indices());
+                packed[first..end].iter().for_each(corners);
                 true
             }
             (Slots::Ids(order), 0) => {
@@ -227,7 +267,7 @@ impl LeafTriangles {
     pub(crate) fn heap_bytes(&self) -> usize {
         match &self.slots {
             Slots::Ids(order) => order.len() * size_of::<u32>(),
-            Slots::IndicesAndId(indices) => indices.len() * size_of::<IndexedSlot>(),
+            Slots::PackedIndicesAndId(packed) => packed.len() * size_of::<PackedSlot>(),
             Slots::IdsAndCorners(order, corners) => {
                 order.len() * size_of::<u32>() + corners.len() * size_of::<[Vec3; 3]>()
             }
@@ -254,13 +294,13 @@ mod tests {
             .unwrap(),
         );
         for (copy, bytes) in [
-            (LeafCopy::Auto, 0),
-            (LeafCopy::Nothing, 0),
+            (LeafCopy::Auto, 4),
+            (LeafCopy::Nothing, 4),
             (LeafCopy::Indices, 12),
-            (LeafCopy::Corners, 36),
+            (LeafCopy::Corners, 40),
         ] {
             let mut leaves = LeafTriangles::new(mesh.clone(), order.clone(), copy);
-            assert_eq!(leaves.heap_bytes(), order.len() * (4 + bytes), "{copy:?}");
+            assert_eq!(leaves.heap_bytes(), order.len() * bytes, "{copy:?}");
             assert_eq!(leaves.len(), order.len(), "{copy:?}");
             assert_eq!(leaves.ids().collect::<Vec<_>>(), order, "{copy:?}");
             for (slot, &id) in order.iter().enumerate() {
@@ -279,6 +319,38 @@ mod tests {
                 let expected = stage > 0 || matches!(copy, LeafCopy::Corners);
                 assert_eq!(ready, expected, "{copy:?}, stage {stage}");
             }
+        }
+    }
+
+    /// A packed slot gives back the largest index and every id bit, and does not mix them.
+    #[test]
+    fn a_packed_slot_keeps_indices_and_id_apart() {
+        let top = PackedSlot::MAX_VERTICES as u32 - 1;
+        for (indices, id) in [
+            ([top, 0, top], u32::MAX),
+            ([0, top, 0], 0),
+            ([1, 2, 3], 0x8000_0001),
+            ([top, top, top], 0x7FF_FC00),
+        ] {
+            let slot = PackedSlot::new(indices, id);
+            assert_eq!((slot.indices(), slot.id()), (indices, id));
+        }
+    }
+
+    /// A mesh of more than 2^21 vertices, whose indices do not pack, is read through the mesh.
+    #[test]
+    fn a_mesh_too_large_to_pack_is_read_through_the_mesh() {
+        let count = PackedSlot::MAX_VERTICES + 3;
+        let vertices = (0..count)
+            .map(|i| Vec3::new(i as f32, (i % 7) as f32, 1.0))
+            .collect();
+        let last = count as u32 - 1;
+        let triangles = vec![[0, 1, 2], [last, last - 1, last - 2], [last, 0, 5]];
+        let mesh = Arc::new(Mesh::new(vertices, triangles).unwrap());
+        let leaves = LeafTriangles::new(mesh.clone(), vec![2, 0, 1], LeafCopy::Indices);
+        assert_eq!(leaves.heap_bytes(), 3 * 4);
+        for (slot, id) in [(0, 2), (1, 0), (2, 1)] {
+            assert_eq!(leaves.get(slot), (id, mesh.triangle(id)));
         }
     }
 

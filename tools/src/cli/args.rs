@@ -145,7 +145,8 @@ pub struct QueryArgs {
     #[arg(long, value_name = "N", value_parser = positive)]
     pub max_chunk: Option<usize>,
     /// What the tree copies of its leaves' triangles in leaf order: nothing, the vertex
-    /// indices (12 bytes per triangle) or the corners (36 bytes per triangle); auto: the
+    /// indices with the triangle id (12 bytes per triangle, in place of the 4-byte id; meshes
+    /// of more than 2^21 vertices copy nothing) or the corners (36 bytes per triangle); auto: the
     /// indices for bvh4 and bvh8, nothing for the others. Fewer dependent loads per leaf;
     /// the same answers.
     #[arg(long, value_name = "COPY", default_value = LeafCopy::default().name(), value_parser = choice(&LeafCopy::ALL, LeafCopy::name))]
