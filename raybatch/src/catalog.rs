@@ -32,7 +32,7 @@ pub enum AccelKind {
     /// [`WideTree`]: the same tree collapsed to 4 children per node, SIMD box tests.
     Bvh4,
     /// [`WideTree8`]: the same tree collapsed to 8 children per node (AVX2 box tests where
-    /// the CPU has them), for single rays; its batches share nodes as the 4-wide tree's do.
+    /// the CPU has them); its batches share nodes as the 4-wide tree's do. The default.
     Bvh8,
     /// [`QuantizedWideTree`]: the 4-wide tree with 8-bit child boxes, one 64-byte line a node.
     Bvh4q,
@@ -66,13 +66,14 @@ impl AccelKind {
         AccelKind::Hash,
     ];
 
-    /// The fastest exact structure on our measurements: the 4-wide tree answers single rays
-    /// 1.5 to 1.8 times as fast as the binary trees on the bunny, the terrain and the city
-    /// (`raybatch bench`), and batches faster than any other structure but on the 1M-triangle
-    /// terrain, where the binary trees' stream engine still wins (see the README's tables).
-    /// The 8-wide tree is 1.1x faster per ray for 28% more memory and batches at about 0.9x;
-    /// the quantized 4-wide tree takes 45% less memory for about 0.8x per ray and 0.9x batched.
-    pub const DEFAULT: AccelKind = AccelKind::Bvh4;
+    /// The fastest exact structure on our measurements, all queries together: the 8-wide
+    /// tree. Against the 4-wide tree (`peers --race`, 1M rays, one thread; fandisk, teapot,
+    /// bunny, city): single rays 1.14-1.32x as fast (closest hit, incoherent), calls of 4,096
+    /// rays 0.97-1.13x, whole batches of closest hits 0.96-1.02x; but batched any hit
+    /// 0.87-0.95x and batched camera rays 0.87-0.92x (more box tests per ray in a stream).
+    /// Memory 28.4-35.6 B/tri against 26.6-28.4. The quantized 4-wide tree takes a third of
+    /// the memory for about 0.8x per ray and 0.9x batched.
+    pub const DEFAULT: AccelKind = AccelKind::Bvh8;
 
     /// The name used on the command line and in tables.
     pub fn name(self) -> &'static str {
@@ -97,7 +98,7 @@ impl AccelKind {
             AccelKind::Aabb => "binary SAH tree, 32-byte nodes",
             AccelKind::Quantized => "binary SAH tree, 16-byte quantized nodes",
             AccelKind::Bvh4 => "4-wide tree collapsed from the SAH tree, SIMD box tests",
-            AccelKind::Bvh8 => "8-wide tree collapsed from the SAH tree, for single rays",
+            AccelKind::Bvh8 => "8-wide tree collapsed from the SAH tree, SIMD box tests",
             AccelKind::Bvh4q => "4-wide tree with 8-bit child boxes, 64-byte nodes",
             AccelKind::Zbt => "zero-byte tree: no memory beside the mesh, box cache",
             AccelKind::ZbtNoCache => "zero-byte tree without the box cache",

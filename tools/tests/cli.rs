@@ -561,7 +561,7 @@ fn quick_bench_prints_the_tables_and_writes_the_report() {
     );
     // Modes: 9 modes x 5 ray sets; leaks: 3 closed meshes x 9 modes.
     assert_eq!(tables[3].len(), 2 + 9 * 5, "{out}");
-    assert!(tables[3][2].starts_with("| bvh4 watertight "), "{out}");
+    assert!(tables[3][2].starts_with("| bvh8 watertight "), "{out}");
     assert_eq!(tables[4].len(), 2 + 3 * 9, "{out}");
     let report = target.0.join("raybatch-report");
     let csv = std::fs::read_to_string(report.join("report.csv")).expect("report.csv written");

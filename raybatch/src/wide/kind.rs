@@ -1,6 +1,6 @@
 //! What the wide walks need of a node, so that one tree type, one collapse, one one-ray loop,
-//! one stream engine and one side-by-side engine serve nodes of four children ([`WideNode`],
-//! the default tree), of eight ([`WideNode8`], for single rays) and of four in a quantized
+//! one stream engine and one side-by-side engine serve nodes of four children ([`WideNode`]),
+//! of eight ([`WideNode8`], the default tree) and of four in a quantized
 //! 64-byte node ([`QuantizedWideNode`]).
 //!
 //! Eight children take about a third fewer node visits per walk (12.8 -> 8.8 per incoherent

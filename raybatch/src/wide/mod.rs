@@ -1,5 +1,5 @@
-//! The wide BVHs: the binary SAH tree collapsed so that each node holds four (`WideTree`, the
-//! default) or eight (`WideTree8`) children's boxes, tested against a ray in one SIMD pass:
+//! The wide BVHs: the binary SAH tree collapsed so that each node holds four (`WideTree`) or
+//! eight (`WideTree8`, the default) children's boxes, tested against a ray in one SIMD pass:
 //! fewer, slightly longer node visits than the binary tree's, and fewer stack entries.
 //!
 //! - [`node`]: the 4-wide node layout and its 4-lane box test (identical, lane by lane, to the
@@ -69,16 +69,18 @@ pub struct WideBvh<N: NodeKind> {
     triangles: LeafTriangles,
 }
 
-/// The 4-wide tree, the crate's default structure.
+/// The 4-wide tree: the fastest for batches of any-hit and camera rays (see
+/// [`crate::AccelKind::DEFAULT`]), and the least memory of the trees with full boxes.
 pub type WideTree = WideBvh<WideNode>;
 
 /// The 4-wide tree with its child boxes quantized to 8 bits a plane on a per-node grid (rounded
 /// outwards): one 64-byte cache line per node instead of two, the same answers.
 pub type QuantizedWideTree = WideBvh<QuantizedWideNode>;
 
-/// The 8-wide tree: about a third fewer node visits than the 4-wide one per ray, for single
-/// rays; its batches use the same stream engine as the 4-wide tree's (nodes shared; side by side
-/// on large trees and short streams), at about 0.9x its speed (more box tests per ray).
+/// The 8-wide tree, the crate's default structure: about a third fewer node visits than the
+/// 4-wide one per ray; its batches use the same stream engine as the 4-wide tree's (nodes
+/// shared; side by side on large trees and short streams), at 0.87-1.02x its speed (more box
+/// tests per ray) but faster in calls of a few thousand rays.
 pub type WideTree8 = WideBvh<WideNode8>;
 
 impl<N: NodeKind> WideBvh<N> {

@@ -64,10 +64,10 @@ const WT: Kernel = Kernel::Watertight;
 
 /// Every mode, the default first.
 const MODES: [Mode; 9] = [
-    mode("bvh4 watertight", Build::Tree(AccelKind::Bvh4), WT),
+    mode("bvh8 watertight", Build::Tree(AccelKind::Bvh8), WT),
     mode(
-        "bvh4 moller-trumbore",
-        Build::Tree(AccelKind::Bvh4),
+        "bvh8 moller-trumbore",
+        Build::Tree(AccelKind::Bvh8),
         Kernel::MollerTrumbore,
     ),
     mode("aabb full nodes", Build::Tree(AccelKind::Aabb), WT),

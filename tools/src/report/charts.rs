@@ -12,7 +12,7 @@ use super::{Record, Section};
 /// Size of every chart, in pixels.
 const SIZE: (u32, u32) = (900, 520);
 /// The mode whose per-ray vs batched speeds are charted.
-pub const DEFAULT_MODE: &str = "bvh4 watertight";
+pub const DEFAULT_MODE: &str = "bvh8 watertight";
 /// The ray set of the speed/error and speed/memory charts.
 pub const CHART_RAYS: &str = "closest incoherent";
 

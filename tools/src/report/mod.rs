@@ -64,7 +64,7 @@ pub struct Record {
     pub section: Section,
     /// `bunny`, `terrain`, ... or a closed mesh's name.
     pub scene: String,
-    /// The tree or mode (`bvh4`, `aabb/pns`, `bvh4 moller-trumbore`, `aabb 16-bit vertices`).
+    /// The tree or mode (`bvh4`, `aabb/pns`, `bvh8 moller-trumbore`, `aabb 16-bit vertices`).
     pub mode: String,
     /// The query and ray set (`closest incoherent`).
     pub rays: String,
@@ -155,7 +155,7 @@ mod tests {
         };
         let mut out = Vec::new();
         for (mode, speed, bytes) in [
-            ("bvh4 watertight", 4.0, 24.0),
+            ("bvh8 watertight", 4.0, 24.0),
             ("aabb 16-bit vertices", 3.0, 9.0),
         ] {
             for engine in ["per-ray", "batched"] {
