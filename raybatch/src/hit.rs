@@ -76,6 +76,12 @@ pub trait Visitor {
     /// same rays, so the built-in queries skip it), and a ray that misses a tree enters none.
     const COUNTS_NODES: bool = false;
 
+    /// True if the visitor may end rays (set `tmax` to [`RAY_DONE`]), as an any-hit search
+    /// does at a ray's first hit. The wide trees' stream engine then leaves lists to the
+    /// one-ray walk sooner (see `wide::stream`), since ended rays still cost a stream its box
+    /// tests until a split drops them. Answers do not depend on it.
+    const ENDS_RAYS: bool = false;
+
     /// Called each time the one-ray walk of ray `ray` enters a node (a tree node or leaf, a
     /// grid cell): the hook behind [`crate::RayQueries::cast_ray_visits`], which draws where a
     /// structure spends its time. The default does nothing, and the built-in queries keep it,
@@ -156,6 +162,8 @@ pub struct Any<'a> {
 }
 
 impl Visitor for Any<'_> {
+    const ENDS_RAYS: bool = true;
+
     #[inline(always)]
     fn visit(&mut self, ray: u32, _: Hit, tmax: &mut f32) {
         self.occluded[ray as usize] = true;

@@ -114,7 +114,9 @@ pub struct BatchOptions {
     /// `wide::stream::CHUNK`. A chunk takes about 90 bytes of working memory a ray, which the
     /// thread keeps for its next call (some 6 MiB per thread for the wide trees' chunks).
     pub max_chunk: Option<usize>,
-    /// A node reached by fewer rays than this finishes its subtree one ray at a time.
+    /// A node reached by fewer rays than this finishes its subtree one ray at a time (the
+    /// wide trees' any-hit walks: fewer than twice this, since their streams carry the rays
+    /// they have ended; see `wide::stream`).
     pub single_ray_below: usize,
     /// Of those, a node reached by at least this many rays (and at most eight) finishes its
     /// subtree for them together instead, reading each node once for all of them (the packet

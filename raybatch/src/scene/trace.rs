@@ -45,6 +45,7 @@ struct ToGlobal<'a, V> {
 
 impl<V: Visitor> Visitor for ToGlobal<'_, V> {
     const COUNTS_NODES: bool = V::COUNTS_NODES;
+    const ENDS_RAYS: bool = V::ENDS_RAYS;
 
     #[inline(always)]
     fn visit(&mut self, ray: u32, hit: Hit, tmax: &mut f32) {

@@ -16,7 +16,7 @@
 //! (AVX2, `geom::sign_filter::RayOctet`; four at a time elsewhere), which proves most misses, so the scalar
 //! kernel runs only where a hit is possible (fandisk, 1M incoherent rays, one thread: 114-120
 //! -> 99-103 ms, paired runs). Lists shorter than [`BatchOptions::single_ray_below`] finish their subtree
-//! with the one-ray loop.
+//! with the one-ray loop (any-hit lists: shorter than twice that, `single_ray_below`).
 //!
 //! Eight children per node (`WideTree8`) take a third fewer levels but test more boxes per ray
 //! and level: on octant streams the same engine over the 8-wide tree took 1.01-1.14x the
@@ -55,6 +55,24 @@ pub(crate) struct Pending {
     start: u32,
     end: u32,
     top: u32,
+}
+
+/// The list length below which the walk of visitor `V` finishes a subtree one ray at a time:
+/// the caller's [`crate::BatchOptions::single_ray_below`], doubled when `V` ends rays
+/// ([`Visitor::ENDS_RAYS`]). An any-hit stream carries the rays it has ended until a split
+/// drops them (23% of the rays entering an 8-wide tree's splits, 17% of a 4-wide tree's,
+/// fandisk line of sight), while the one-ray walk stops at a ray's first hit. Measured with
+/// thresholds 8 / 12 / 16, any hit on 1M line-of-sight segments, batched, one thread, best of
+/// 4 alternated runs (ms): `bvh8` bunny 37.1 / 35.5 / 34.4, city (200k) 19.8 / 19.3 / 18.9,
+/// fandisk 26.4 / 26.3 / 26.4, teapot 21.5 / 21.5 / 21.3; `bvh4` bunny 33.8 / 33.2 / 33.7,
+/// city 18.0 / 17.7 / 17.2. Closest-hit walks keep 8: larger thresholds cost the bunny in
+/// calls of 4,096 rays (`bvh8` 108.3 / 110.0 / 110.5, `bvh4` 120.2 / 123.4 / 125.5).
+fn single_ray_below<V: Visitor>(option: usize) -> usize {
+    if V::ENDS_RAYS {
+        option.saturating_mul(2)
+    } else {
+        option
+    }
 }
 
 /// The most children a node has: the stream's per-child arrays are this long.
@@ -98,7 +116,7 @@ pub(crate) fn trace_stream<N: NodeKind, K: TriangleTest, V: Visitor>(
     }
     let setup = Setup {
         octant_mask: stream.octant_mask(),
-        single_ray_below: stream.options().single_ray_below,
+        single_ray_below: single_ray_below::<V>(stream.options().single_ray_below),
         root_tested: stream.in_cull_bounds(),
     };
     let WideScratch {
@@ -580,6 +598,20 @@ mod tests {
     use super::*;
     use crate::geom::{Aabb, Ray};
     use crate::test_support::TestRng;
+
+    /// Any-hit walks (whose visitor ends rays) leave lists to the one-ray walk at twice the
+    /// caller's threshold, every other walk at the threshold itself, saturating.
+    #[test]
+    fn ending_visitors_double_the_one_ray_threshold() {
+        use crate::hit::{Any, Closest, Every};
+        assert_eq!(single_ray_below::<Any<'static>>(8), 16);
+        assert_eq!(single_ray_below::<Any<'static>>(usize::MAX), usize::MAX);
+        assert_eq!(single_ray_below::<Closest<'static>>(8), 8);
+        assert_eq!(
+            single_ray_below::<Every<'static, fn(usize, crate::Hit)>>(8),
+            8
+        );
+    }
 
     /// A node of `used` random boxes (some flat), ordered.
     fn random_node<N: NodeKind>(rng: &mut TestRng, used: usize) -> (N, Vec<Aabb>) {
