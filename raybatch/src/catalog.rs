@@ -68,11 +68,11 @@ impl AccelKind {
 
     /// The fastest exact structure on our measurements, all queries together: the 8-wide
     /// tree. Against the 4-wide tree (`peers --race`, 1M rays, one thread; fandisk, teapot,
-    /// bunny, city): single rays 1.14-1.32x as fast (closest hit, incoherent), calls of 4,096
-    /// rays 0.97-1.13x, whole batches of closest hits 0.96-1.02x; but batched any hit
-    /// 0.87-0.95x and batched camera rays 0.87-0.92x (more box tests per ray in a stream).
-    /// Memory 28.4-35.6 B/tri against 26.6-28.4. The quantized 4-wide tree takes a third of
-    /// the memory for about 0.8x per ray and 0.9x batched.
+    /// bunny, city): single rays 1.13-1.29x as fast (closest hit, incoherent), calls of 4,096
+    /// rays 0.97-1.15x, whole batches of closest hits 0.95-1.04x; but batched any hit
+    /// 0.88-0.98x and batched camera rays 0.87-0.92x (more box tests per ray in a stream).
+    /// Memory 28.4-35.6 B/tri against 26.6-28.4. The quantized 4-wide tree takes 11.3-12.2
+    /// B/tri for about 0.8x the 4-wide tree's speed per ray and 0.9x batched.
     pub const DEFAULT: AccelKind = AccelKind::Bvh8;
 
     /// The name used on the command line and in tables.

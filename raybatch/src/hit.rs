@@ -79,7 +79,8 @@ pub trait Visitor {
     /// True if the visitor may end rays (set `tmax` to [`RAY_DONE`]), as an any-hit search
     /// does at a ray's first hit. The wide trees' stream engine then leaves lists to the
     /// one-ray walk sooner (see `wide::stream`), since ended rays still cost a stream its box
-    /// tests until a split drops them. Answers do not depend on it.
+    /// tests until a split drops them. Hits do not depend on it; the nodes a counting visitor
+    /// sees ([`Visitor::enter_node`], called only by one-ray walks) do.
     const ENDS_RAYS: bool = false;
 
     /// Called each time the one-ray walk of ray `ray` enters a node (a tree node or leaf, a

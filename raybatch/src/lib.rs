@@ -24,8 +24,9 @@
 //! - the interface: [`accel`] (what every structure implements), [`hit`] (hits, the tie rule,
 //!   visitors), [`workspace`] (per-thread memory);
 //! - structures: [`bvh`] (binary BVHs: build, ordering, node formats), [`wide`] (the 4- and
-//!   8-wide BVHs collapsed from it; the 8-wide one is the default), [`zbt`] (the zero-byte tree and its hybrid, no memory beside the
-//!   mesh), [`grid`] (the uniform grid and the spatial hash) and [`kdtree`], which split space;
+//!   8-wide BVHs collapsed from it; the 8-wide one is the default), [`zbt`] (the zero-byte
+//!   tree and its hybrid, no memory beside the mesh), [`grid`] (the uniform grid and the
+//!   spatial hash) and [`kdtree`], which split space;
 //! - engines: [`traverse`] (how a BVH walks one ray or a stream), [`batch`] (batch machinery);
 //! - adapters: [`permuted`] (a reordering structure answering in the original ids), [`scene`]
 //!   (many meshes placed as instances, answering in world space);

@@ -47,6 +47,9 @@ struct ToOriginal<'a, V> {
     inner: &'a mut V,
 }
 
+// The wrapper passes on what the walks read of the visitor it wraps.
+const _: () = assert!(<ToOriginal<'static, crate::hit::Any<'static>> as Visitor>::ENDS_RAYS);
+
 impl<V: Visitor> Visitor for ToOriginal<'_, V> {
     const COUNTS_NODES: bool = V::COUNTS_NODES;
     const ENDS_RAYS: bool = V::ENDS_RAYS;

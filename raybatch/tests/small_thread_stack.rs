@@ -36,7 +36,6 @@ fn queries_on_a_64_kib_thread_match_the_main_thread() {
     let mesh = bunny();
     let rays = incoherent(&mesh, 3_000, &mut seeded(64));
     for kind in [
-        AccelKind::DEFAULT,
         AccelKind::Bvh4,
         AccelKind::Bvh8,
         AccelKind::Aabb,

@@ -28,10 +28,15 @@ fn main() {
         let default = AccelKind::DEFAULT.build(mesh.clone(), &options).unwrap();
         let q16 = QuantizedMesh::new(&mesh, 16).unwrap();
         let q16 = AnyAccel::new(QuantizedVertexTree::<FullNodes>::build(q16, &options).unwrap());
+        let name = AccelKind::DEFAULT.name();
         let modes = [
-            ("bvh4 watertight", &default, Kernel::Watertight),
-            ("bvh4 moller-trumbore", &default, Kernel::MollerTrumbore),
-            ("aabb 16-bit vertices", &q16, Kernel::Watertight),
+            (format!("{name} watertight"), &default, Kernel::Watertight),
+            (
+                format!("{name} moller-trumbore"),
+                &default,
+                Kernel::MollerTrumbore,
+            ),
+            ("aabb 16-bit vertices".to_string(), &q16, Kernel::Watertight),
         ];
         let mut leaks = [[0usize; 2]; 3];
         let mut judge_misses = 0;

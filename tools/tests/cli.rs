@@ -595,17 +595,17 @@ fn quick_bench_prints_the_tables_and_writes_the_report() {
 #[test]
 fn bench_filters_select_trees() {
     let args = [
-        "bench", "--quick", "--scenes", "bunny", "--trees", "kd,bvh4", "--rays", "500",
+        "bench", "--quick", "--scenes", "bunny", "--trees", "kd,bvh8", "--rays", "500",
     ];
     let output = raybatch(&args);
     let out = String::from_utf8_lossy(&output.stdout);
     assert!(output.status.success(), "{}", stderr(&output));
     let tables = tables(&out);
-    // The main table and per-ray vs batched (the sweep needs the default tree, bvh4: present).
+    // The main table and per-ray vs batched (the sweep needs the default tree, bvh8: present).
     let main = &tables[0];
     assert_eq!(main.len(), 2 + 2, "{out}");
     assert!(
-        main[2].starts_with("| bvh4 ") && main[3].starts_with("| kd "),
+        main[2].starts_with("| bvh8 ") && main[3].starts_with("| kd "),
         "{out}"
     );
     assert!(!out.contains("Zero memory"), "{out}");

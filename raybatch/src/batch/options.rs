@@ -56,10 +56,11 @@ impl BatchOrdering {
 
 /// Whether a structure walks a stream's rays side by side, one loop turn each in turn (hiding
 /// one ray's cache misses behind the others' work), or shares each node among all the rays
-/// that reach it. Only the 4-wide tree has both engines; the others ignore it.
+/// that reach it. Only the wide trees with full nodes (`bvh4`, `bvh8`) have both engines; the
+/// others ignore it.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 pub enum Interleave {
-    /// The structure decides by its size: the 4-wide tree interleaves when its nodes, leaf
+    /// The structure decides by its size: a wide tree interleaves when its nodes, leaf
     /// order and mesh pass 16 MiB, where waiting on memory dominates, and for streams of
     /// fewer than 2,048 rays once they pass 8 MiB, where few rays share each node.
     #[default]

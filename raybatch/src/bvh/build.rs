@@ -48,7 +48,8 @@ pub struct BuildOptions {
     /// ([`LeafCopy::Auto`] by default: the vertex indices for [`crate::WideTree`] and
     /// [`crate::WideTree8`], nothing for the others), so that reading a leaf's triangles takes
     /// fewer dependent loads, scattered less over the mesh. The zero-byte trees and the
-    /// quantized-vertex tree copy nothing whatever the choice (a copy would undo their saving).
+    /// quantized-vertex tree copy nothing whatever the choice (a copy would undo their saving),
+    /// and the index copy needs meshes of at most 2^21 vertices (larger ones copy nothing).
     pub leaf_copy: LeafCopy,
     /// The wide trees (`WideTree`, `WideTree8`, `QuantizedWideTree`) only: the most triangles a
     /// leaf may hold when their collapse turns a small binary subtree into one leaf, which it

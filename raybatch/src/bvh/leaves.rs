@@ -95,7 +95,8 @@ enum Slots {
 #[derive(Clone, Copy, Debug)]
 #[repr(C)]
 struct PackedSlot {
-    indices: [u32; 2],
+    /// The 64-bit word of the three indices, low half first.
+    word: [u32; 2],
     id: u32,
 }
 
@@ -104,6 +105,7 @@ impl PackedSlot {
     const INDEX_BITS: u32 = 21;
     /// The largest vertex count whose indices fit.
     const MAX_VERTICES: usize = 1 << Self::INDEX_BITS;
+    /// One index's bits in the word.
     const INDEX_MASK: u64 = (1 << Self::INDEX_BITS) - 1;
 
     /// Triangle `id`'s slot; each of `indices` must be below [`PackedSlot::MAX_VERTICES`].
@@ -113,7 +115,7 @@ impl PackedSlot {
             word | u64::from(indices[k]) << (Self::INDEX_BITS * k as u32)
         });
         Self {
-            indices: [word as u32, (word >> 32) as u32],
+            word: [word as u32, (word >> 32) as u32],
             id,
         }
     }
@@ -121,7 +123,7 @@ impl PackedSlot {
     /// The vertex indices.
     #[inline(always)]
     fn indices(self) -> [u32; 3] {
-        let word = u64::from(self.indices[0]) | u64::from(self.indices[1]) << 32;
+        let word = u64::from(self.word[0]) | u64::from(self.word[1]) << 32;
         [0, 1, 2].map(|k| ((word >> (Self::INDEX_BITS * k)) & Self::INDEX_MASK) as u32)
     }
 
@@ -209,7 +211,6 @@ impl LeafTriangles {
                 let packed = packed[slot];
                 (packed.id(), packed.indices().map(|i| vertices[i as usize]))
             }
-
             Slots::IdsAndCorners(order, corners) => (order[slot], corners[slot]),
         }
     }
@@ -337,20 +338,29 @@ mod tests {
         }
     }
 
-    /// A mesh of more than 2^21 vertices, whose indices do not pack, is read through the mesh.
+    /// A mesh of exactly 2^21 vertices packs its indices, the last one included; one vertex
+    /// more and the mesh is read through itself.
     #[test]
-    fn a_mesh_too_large_to_pack_is_read_through_the_mesh() {
-        let count = PackedSlot::MAX_VERTICES + 3;
-        let vertices = (0..count)
-            .map(|i| Vec3::new(i as f32, (i % 7) as f32, 1.0))
-            .collect();
-        let last = count as u32 - 1;
-        let triangles = vec![[0, 1, 2], [last, last - 1, last - 2], [last, 0, 5]];
-        let mesh = Arc::new(Mesh::new(vertices, triangles).unwrap());
-        let leaves = LeafTriangles::new(mesh.clone(), vec![2, 0, 1], LeafCopy::Indices);
-        assert_eq!(leaves.heap_bytes(), 3 * 4);
-        for (slot, id) in [(0, 2), (1, 0), (2, 1)] {
-            assert_eq!(leaves.get(slot), (id, mesh.triangle(id)));
+    fn meshes_pack_up_to_two_to_the_21_vertices() {
+        for (count, bytes) in [
+            (PackedSlot::MAX_VERTICES, 12),
+            (PackedSlot::MAX_VERTICES + 1, 4),
+        ] {
+            let vertices = (0..count)
+                .map(|i| Vec3::new(i as f32, (i % 7) as f32, 1.0))
+                .collect();
+            let last = count as u32 - 1;
+            let triangles = vec![[0, 1, 2], [last, last - 1, last - 2], [last, 0, 5]];
+            let mesh = Arc::new(Mesh::new(vertices, triangles).unwrap());
+            let leaves = LeafTriangles::new(mesh.clone(), vec![2, 0, 1], LeafCopy::Indices);
+            assert_eq!(leaves.heap_bytes(), 3 * bytes, "{count} vertices");
+            for (slot, id) in [(0, 2), (1, 0), (2, 1)] {
+                assert_eq!(
+                    leaves.get(slot),
+                    (id, mesh.triangle(id)),
+                    "{count} vertices"
+                );
+            }
         }
     }
 

@@ -43,6 +43,9 @@ struct ToGlobal<'a, V> {
     inner: &'a mut V,
 }
 
+// The wrapper passes on what the walks read of the visitor it wraps.
+const _: () = assert!(<ToGlobal<'static, crate::hit::Any<'static>> as Visitor>::ENDS_RAYS);
+
 impl<V: Visitor> Visitor for ToGlobal<'_, V> {
     const COUNTS_NODES: bool = V::COUNTS_NODES;
     const ENDS_RAYS: bool = V::ENDS_RAYS;

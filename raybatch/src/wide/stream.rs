@@ -25,7 +25,7 @@
 //! segments). Since small octants share a stream, it takes 0.94 / 0.96 / 0.99x the 4-wide tree's time on 1M
 //! incoherent rays (fandisk / teapot / bunny; 0.94 / 0.99 / 0.77x in calls of 4,096), but
 //! 0.98-1.05x on line-of-sight segments and 1.01-1.13x on camera rays (500k rays, best of 5).
-//! The 8-wide tree is still the default: single rays gain more than batches lose
+//! The 8-wide tree is the default nonetheless: single rays gain more than batches lose
 //! ([`crate::AccelKind::DEFAULT`] has the figures).
 //!
 //! The index lists live in one buffer used as a stack: a node's child lists are written above

@@ -151,7 +151,7 @@ pub struct QueryArgs {
     /// the same answers.
     #[arg(long, value_name = "COPY", default_value = LeafCopy::default().name(), value_parser = choice(&LeafCopy::ALL, LeafCopy::name))]
     pub leaf_copy: LeafCopy,
-    /// With --batched, whether the 4-wide tree walks rays side by side, hiding cache misses
+    /// With --batched, whether the wide trees walk rays side by side, hiding cache misses
     /// (always), shares each node among the rays that reach it (never), or picks by its size
     /// (auto).
     #[arg(long, value_name = "WHEN", default_value = Interleave::default().name(), value_parser = choice(&Interleave::ALL, Interleave::name))]

@@ -292,3 +292,22 @@ pub fn leaks(count: usize) -> (String, Vec<Record>) {
     );
     (text, records)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The first mode is the default tree with the watertight kernel, under the name the
+    /// report's charts look for.
+    #[test]
+    fn the_first_mode_is_the_default_tree() {
+        let first = &MODES[0];
+        assert!(matches!(first.build, Build::Tree(kind) if kind == AccelKind::DEFAULT));
+        assert!(matches!(first.kernel, Kernel::Watertight));
+        assert_eq!(first.name, raybatch_tools::report::charts::DEFAULT_MODE);
+        assert_eq!(
+            first.name,
+            format!("{} watertight", AccelKind::DEFAULT.name())
+        );
+    }
+}
