@@ -63,7 +63,7 @@ pub enum Interleave {
     /// The structure decides by its size: a wide tree interleaves when its nodes, leaf
     /// order and mesh pass 16 MiB, where waiting on memory dominates, and for streams of
     /// fewer than 2,048 rays once they pass 8 MiB, where few rays share each node; but never
-    /// for a stream of one direction octant of at least 16,384 rays (a camera's coherent
+    /// for a stream of one direction octant of at least 4,096 rays (a camera's coherent
     /// rays, which share most nodes).
     #[default]
     Auto,

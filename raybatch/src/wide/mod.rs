@@ -270,15 +270,17 @@ const SHORT_STREAM_RAYS: usize = 2048;
 /// 311.5 vs 804.8.
 const SHORT_INTERLEAVE_ABOVE_BYTES: usize = 8 << 20;
 
-/// A stream of one direction octant at least this long is a coherent group (a camera's:
-/// `batch::group` keeps an octant apart when it holds a quarter of a chunk, 16,384 of the wide
-/// trees' 65,536 rays), whose rays take much the same paths, so [`Interleave::Auto`] shares
-/// nodes among them even on trees beyond the caches. (Incoherent rays kept apart by octant make
-/// streams of about an eighth of a chunk.) Measured on the 1M-triangle terrain (`bvh8`, 56 MB
-/// with its mesh; one thread, 1M camera rays, batched, best of 2 x 2 passes): side by side
-/// 85.1 ms, nodes shared 53.7, one ray at a time 89.7; incoherent rays stay side by side
-/// (181.9 against 228.1).
-const SHARED_OCTANT_RAYS: usize = 16_384;
+/// A stream of one direction octant at least this long is taken for a coherent group (a
+/// camera's: `batch::group` keeps an octant apart when it holds a quarter of a chunk), whose
+/// rays take much the same paths, so [`Interleave::Auto`] shares nodes among them even on
+/// trees beyond the caches. Measured on the 1M-triangle terrain (`bvh8`, 56 MB with its mesh;
+/// one thread, 1M camera rays, best of 2 x 2 passes, ms): in one call side by side 88.9, nodes
+/// shared 51.1; in calls of 4,096 rays 90.6 against 57.7; in calls of 1,024 95.1 against 95.1;
+/// one ray at a time 89.7-94.3. Incoherent rays stay side by side (mixed streams: 181.9
+/// against 228.1 shared). Octant streams of incoherent rays this long (the `SeparateOctants`
+/// ordering, or closest-hit chunks of over 32k rays that the thread's mixing choice keeps
+/// apart) now share nodes on such trees too.
+const SHARED_OCTANT_RAYS: usize = 4_096;
 
 /// [`Interleave::Auto`]'s choice for a tree whose walks read `working_set` bytes and a stream
 /// of `rays` rays of the octants `octant_mask` (0 for mixed): true to walk the rays side by side.
