@@ -64,10 +64,10 @@ const WT: Kernel = Kernel::Watertight;
 
 /// Every mode, the default first.
 const MODES: [Mode; 9] = [
-    mode("bvh8 watertight", Build::Tree(AccelKind::Bvh8), WT),
+    mode("bvh8 watertight", Build::Tree(AccelKind::DEFAULT), WT),
     mode(
         "bvh8 moller-trumbore",
-        Build::Tree(AccelKind::Bvh8),
+        Build::Tree(AccelKind::DEFAULT),
         Kernel::MollerTrumbore,
     ),
     mode("aabb full nodes", Build::Tree(AccelKind::Aabb), WT),
