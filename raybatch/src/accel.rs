@@ -25,7 +25,7 @@ use crate::batch::rays::PreparedRays;
 #[cfg(target_arch = "x86_64")]
 use crate::geom::sign_filter::RayOctet;
 use crate::geom::sign_filter::RayQuad;
-use crate::geom::{Aabb, PreparedRay, TriangleTest};
+use crate::geom::{Aabb, PreparedRay, Ray, TriangleTest};
 use crate::hit::Visitor;
 use crate::workspace::Workspace;
 #[cfg(target_arch = "x86_64")]
@@ -60,6 +60,15 @@ pub trait Accel: Sync + Sized {
     /// ([`StreamLayout::default_max_chunk`]). The wide trees, which walk a chunk's incoherent
     /// rays as one stream, are fastest on shorter chunks (`wide::stream::CHUNK`).
     const DEFAULT_MAX_CHUNK: usize = Self::STREAM_LAYOUT.default_max_chunk();
+
+    /// The largest chunk the batch `rays` is cut into for this structure, unless
+    /// [`crate::BatchOptions::max_chunk`] says otherwise: [`Accel::DEFAULT_MAX_CHUNK`], or
+    /// what suits this structure's size and the rays (the wide trees cut incoherent batches
+    /// into longer chunks when they are beyond the caches, `WideBvh`'s `LARGE_TREE_CHUNK`).
+    fn max_chunk(&self, rays: &[Ray]) -> usize {
+        let _ = rays;
+        Self::DEFAULT_MAX_CHUNK
+    }
 
     /// Reports to `visitor`, as ray number `id`, every hit of `ray` with kernel `K` in
     /// `[ray.tmin, tmax]`, where `tmax` starts at `ray.tmax` and follows what the visitor sets;

@@ -9,7 +9,7 @@
 //! structure over the original mesh, ties included.
 
 use crate::accel::{Accel, Footprint, RayStream, StreamLayout};
-use crate::geom::{PreparedRay, TriangleTest};
+use crate::geom::{PreparedRay, Ray, TriangleTest};
 use crate::hit::{Hit, Visitor};
 
 /// A structure over a reordered mesh and the permutation back to the original ids.
@@ -72,6 +72,10 @@ impl<A: Accel> Accel for Permuted<A> {
     const GROUP_BY_OCTANT: bool = A::GROUP_BY_OCTANT;
     const MIXES_SMALL_OCTANTS: bool = A::MIXES_SMALL_OCTANTS;
     const DEFAULT_MAX_CHUNK: usize = A::DEFAULT_MAX_CHUNK;
+
+    fn max_chunk(&self, rays: &[Ray]) -> usize {
+        self.inner.max_chunk(rays)
+    }
 
     #[inline]
     fn trace<K: TriangleTest, V: Visitor>(

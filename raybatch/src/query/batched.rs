@@ -185,7 +185,7 @@ fn for_each_prepared_chunk<A: Accel, T: Send>(
 ) {
     let partitioner = options.partition.checked();
     let cull = accel.cull_bounds();
-    let chunking = (options, A::DEFAULT_MAX_CHUNK);
+    let chunking = (options, accel.max_chunk(rays));
     for_each_chunk(rays, out, chunking, |offset, rays, out| {
         with_chunk::<A, _>(
             (rays, cull),

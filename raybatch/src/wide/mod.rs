@@ -47,7 +47,7 @@ use crate::batch::Interleave;
 use crate::bvh::build::{BuildError, BuildOptions, build};
 use crate::bvh::leaves::LeafTriangles;
 use crate::bvh::nodes::leaf_word;
-use crate::geom::{Aabb, PreparedRay, TriangleTest};
+use crate::geom::{Aabb, PreparedRay, Ray, TriangleTest, octant};
 use crate::hit::Visitor;
 use crate::mesh::Mesh;
 pub use kind::NodeKind;
@@ -198,6 +198,16 @@ impl<N: NodeKind> Accel for WideBvh<N> {
     const MIXES_SMALL_OCTANTS: bool = true;
     const DEFAULT_MAX_CHUNK: usize = stream::CHUNK;
 
+    /// [`LARGE_TREE_CHUNK`] for incoherent rays on a tree beyond the caches, else
+    /// [`stream::CHUNK`].
+    fn max_chunk(&self, rays: &[Ray]) -> usize {
+        if self.working_set_bytes() > INTERLEAVE_ABOVE_BYTES && !coherent(rays) {
+            LARGE_TREE_CHUNK
+        } else {
+            Self::DEFAULT_MAX_CHUNK
+        }
+    }
+
     /// The root box: every child box of the root node lies inside it (the one-ray loop leaves
     /// the test to the root node, see `single::trace`).
     fn cull_bounds(&self) -> Option<Aabb> {
@@ -231,7 +241,7 @@ impl<N: NodeKind> Accel for WideBvh<N> {
         scratch: &mut WideScratch,
         visitor: &mut V,
     ) {
-        if self.walks_side_by_side(stream) {
+        if self.walks_side_by_side(stream, V::ENDS_RAYS) {
             dispatch::trace_side_by_side::<N, K, V>(true, self, stream, scratch, visitor)
         } else {
             dispatch::trace_shared::<N, K, V>(true, self, stream, scratch, visitor)
@@ -282,27 +292,78 @@ const SHORT_INTERLEAVE_ABOVE_BYTES: usize = 8 << 20;
 /// apart) now share nodes on such trees too.
 const SHARED_OCTANT_RAYS: usize = 4_096;
 
+/// A stream at least this long shares nodes on any tree, whatever its rays' directions: enough
+/// rays reach each node that one fetch of it serves many of them, where side by side each ray
+/// waits on its own fetch. Halved for visitors that end rays ([`Visitor::ENDS_RAYS`]: any
+/// hit), whose streams thin out as rays are occluded and gain more from sharing. Measured on
+/// the 1M-triangle terrain (`bvh8`, 56 MB with its mesh; one thread, 1M rays of the
+/// `--scene terrain` sets in calls of N rays (one chunk each), best of 3 passes, side by side
+/// against nodes shared, ms): incoherent closest hit N = 65,536: 196 vs 247, one call in
+/// chunks of 131,072: 173 shared; sightlines any hit N = 16,384: 373 vs 518, 32,768: 373 vs
+/// 360, 65,536: 385 vs 270; sightlines closest hit N = 65,536: 400 vs 450.
+const DENSE_STREAM_RAYS: usize = 1 << 17;
+
+/// The chunk of a tree beyond the caches (working set above [`INTERLEAVE_ABOVE_BYTES`]),
+/// instead of [`stream::CHUNK`]: on such a tree every node fetch is a trip to memory, and a
+/// longer chunk shares each one among more rays (its streams are long enough to share nodes,
+/// [`DENSE_STREAM_RAYS`]), which pays for the records falling out of the caches. Measured on
+/// the terrain (`bvh8`, one thread, 1M rays in one call, best of 2 x 2 passes, ms; the
+/// automatic choice before this, side by side in chunks of 65,536, then nodes shared in
+/// chunks of 65,536 / 131,072 / 262,144 / 524,288 / 1,048,576): `--scene terrain`
+/// incoherent closest hit 196, 247 / 173 / 163 / 155 / 154; sightlines any hit 383, 281 / 233
+/// / 226 / 208 / 209; sightlines closest hit 399, 471 / 396 / 384 / 391 / 262; rays aimed at
+/// the terrain as one object (`raybatch rays`), incoherent closest 188, 233 / 165 / 144 / 149
+/// / 149; line of sight any hit 68, 147 / 121 / 87 / 55 / 41. A chunk takes some 90 bytes a
+/// ray: 90 MB for a thread's chunk of 1M rays.
+const LARGE_TREE_CHUNK: usize = 1 << 20;
+
+/// Rays sampled by [`coherent`].
+const COHERENCE_SAMPLE: usize = 1024;
+
+/// True if a quarter of a sample of `rays` (evenly spaced) point into one direction octant:
+/// a camera's rays, which `batch::group` keeps in octant groups. They share nodes well
+/// enough in chunks of [`stream::CHUNK`], and a longer chunk costs them more in records out of
+/// the caches than it saves (terrain, `bvh8`, 1M camera rays in one call, one thread, best of
+/// 4 x 3 passes: 62.9 ms in chunks of 65,536, 72.0 in chunks of 1M). Incoherent rays spread
+/// over the octants, an eighth in each (with 1,024 rays sampled, a quarter is six standard
+/// deviations above an eighth).
+fn coherent(rays: &[Ray]) -> bool {
+    let step = rays.len().div_ceil(COHERENCE_SAMPLE).max(1);
+    let mut counts = [0usize; 8];
+    for ray in rays.iter().step_by(step) {
+        counts[octant(ray.dir) as usize] += 1;
+    }
+    let sampled = rays.len().div_ceil(step);
+    sampled > 0 && counts.iter().any(|&count| 4 * count >= sampled)
+}
+
 /// [`Interleave::Auto`]'s choice for a tree whose walks read `working_set` bytes and a stream
-/// of `rays` rays of the octants `octant_mask` (0 for mixed): true to walk the rays side by side.
-fn interleaves(working_set: usize, rays: usize, octant_mask: u8) -> bool {
+/// of `rays` rays of the octants `octant_mask` (0 for mixed), for a visitor that ends rays
+/// (`ends_rays`) or not: true to walk the rays side by side.
+fn interleaves(working_set: usize, rays: usize, octant_mask: u8, ends_rays: bool) -> bool {
     let coherent = octant_mask != 0 && rays >= SHARED_OCTANT_RAYS;
-    !coherent
+    let dense = rays >= DENSE_STREAM_RAYS >> u32::from(ends_rays);
+    !(coherent || dense)
         && (working_set > INTERLEAVE_ABOVE_BYTES
             || (rays < SHORT_STREAM_RAYS && working_set > SHORT_INTERLEAVE_ABOVE_BYTES))
 }
 
 impl<N: NodeKind> WideBvh<N> {
     /// True if `stream` is to be walked by the side-by-side engine ([`BatchOptions::interleave`],
-    /// [`Interleave::Auto`] deciding by [`interleaves`]).
+    /// [`Interleave::Auto`] deciding by [`interleaves`]), for a visitor that ends rays
+    /// (`ends_rays`) or not.
     ///
     /// [`BatchOptions::interleave`]: crate::BatchOptions::interleave
-    fn walks_side_by_side(&self, stream: &RayStream<'_>) -> bool {
+    fn walks_side_by_side(&self, stream: &RayStream<'_>, ends_rays: bool) -> bool {
         match stream.options().interleave {
             Interleave::Always => true,
             Interleave::Never => false,
-            Interleave::Auto => {
-                interleaves(self.working_set_bytes(), stream.len(), stream.octant_mask())
-            }
+            Interleave::Auto => interleaves(
+                self.working_set_bytes(),
+                stream.len(),
+                stream.octant_mask(),
+                ends_rays,
+            ),
         }
     }
 
@@ -341,16 +402,68 @@ mod tests {
 
     /// The automatic choice: small trees share nodes; trees beyond the caches walk mixed and
     /// short streams side by side, but share nodes among a long stream of one octant (a
-    /// camera's coherent rays).
+    /// camera's coherent rays) and among dense streams (half as long for any hit).
     #[test]
     fn the_automatic_engine_choice() {
         let (small, mid, large) = (4 << 20, 12 << 20, 64 << 20);
         let (mixed, one_octant) = (0, 1 << 3);
-        assert!(!interleaves(small, 100, mixed) && !interleaves(small, 100_000, one_octant));
-        assert!(interleaves(mid, 1_000, mixed) && !interleaves(mid, 4_096, mixed));
-        assert!(interleaves(large, 65_536, mixed));
-        assert!(interleaves(large, SHARED_OCTANT_RAYS - 1, one_octant));
-        assert!(!interleaves(large, SHARED_OCTANT_RAYS, one_octant));
+        for ends in [false, true] {
+            assert!(!interleaves(small, 100, mixed, ends));
+            assert!(!interleaves(small, 100_000, one_octant, ends));
+            assert!(interleaves(mid, 1_000, mixed, ends) && !interleaves(mid, 4_096, mixed, ends));
+            assert!(interleaves(large, 32_768, mixed, ends));
+            assert!(interleaves(large, SHARED_OCTANT_RAYS - 1, one_octant, ends));
+            assert!(!interleaves(large, SHARED_OCTANT_RAYS, one_octant, ends));
+            assert!(!interleaves(large, DENSE_STREAM_RAYS, mixed, ends));
+        }
+        assert!(interleaves(large, 65_536, mixed, false));
+        assert!(!interleaves(large, 65_536, mixed, true));
+    }
+
+    /// Trees beyond the caches take longer chunks; a permuted tree takes its inner tree's.
+    #[test]
+    fn large_trees_take_long_chunks() {
+        let small = WideTree8::build(bunny(), &BuildOptions::default()).unwrap();
+        assert!(small.working_set_bytes() < INTERLEAVE_ABOVE_BYTES);
+        let incoherent = random_rays(&bunny(), 5_000, 3);
+        assert_eq!(small.max_chunk(&incoherent), stream::CHUNK);
+        let large = WideTree8::build(large_grid_mesh(), &BuildOptions::default()).unwrap();
+        assert!(large.working_set_bytes() > INTERLEAVE_ABOVE_BYTES);
+        assert_eq!(large.max_chunk(&incoherent), LARGE_TREE_CHUNK);
+        // A camera's rays looking down, into four octants.
+        let camera: Vec<Ray> = (0..5_000)
+            .map(|i| {
+                let (x, z) = ((i % 70) as f32 - 34.5, (i / 70) as f32 - 35.0);
+                Ray::new(Vec3::new(0.0, 100.0, 0.0), Vec3::new(x, -50.0, z))
+            })
+            .collect();
+        assert!(coherent(&camera) && !coherent(&incoherent) && !coherent(&[]));
+        assert_eq!(large.max_chunk(&camera), stream::CHUNK);
+        let ids = (0..large.triangle_count() as u32).collect();
+        let permuted = crate::permuted::Permuted::new(large, ids);
+        assert_eq!(permuted.max_chunk(&incoherent), LARGE_TREE_CHUNK);
+    }
+
+    /// A flat grid of some 600k triangles: a tree beyond [`INTERLEAVE_ABOVE_BYTES`].
+    fn large_grid_mesh() -> Mesh {
+        let side = 550u32;
+        let vertices = (0..=side)
+            .flat_map(|z| {
+                (0..=side).map(move |x| Vec3::new(x as f32, ((x * z) % 7) as f32, z as f32))
+            })
+            .collect();
+        let at = |x: u32, z: u32| z * (side + 1) + x;
+        let triangles = (0..side)
+            .flat_map(|z| {
+                (0..side).flat_map(move |x| {
+                    [
+                        [at(x, z), at(x + 1, z), at(x, z + 1)],
+                        [at(x + 1, z), at(x + 1, z + 1), at(x, z + 1)],
+                    ]
+                })
+            })
+            .collect();
+        Mesh::new(vertices, triangles).unwrap()
     }
 
     fn bits(h: Option<Hit>) -> Option<(u32, u32, u32, u32)> {
