@@ -4,7 +4,7 @@
 //! smaller ones keep the working set in cache and give every thread work.
 //!
 //! On one thread the batch is cut into chunks of [`BatchOptions::max_chunk`] rays (or the
-//! structure's own, [`crate::accel::Accel::DEFAULT_MAX_CHUNK`]). On several,
+//! structure's own, [`crate::accel::Accel::max_chunk`]). On several,
 //! chunks shrink as the batch runs out (guided scheduling): each is a share of the rays still
 //! waiting, so the threads start on large chunks and finish on small ones, and none sits idle
 //! while another works through a large last chunk. Threads take the chunks in order from one
@@ -41,7 +41,7 @@ pub(crate) fn plan(
 
 /// Runs `f(offset, rays, out)` on matching chunks of `rays` and `out` (`offset`: the chunk's
 /// first ray in the batch) for a structure whose own largest chunk is `default_largest`
-/// ([`crate::accel::Accel::DEFAULT_MAX_CHUNK`]), in parallel when `options.parallel` and
+/// ([`crate::accel::Accel::max_chunk`]), in parallel when `options.parallel` and
 /// threads are available.
 pub(crate) fn for_each_chunk<T: Send>(
     rays: &[Ray],

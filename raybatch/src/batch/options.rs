@@ -109,13 +109,17 @@ pub struct BatchOptions {
     /// Smallest chunk handed to one rayon task.
     pub min_chunk: usize,
     /// Largest chunk traversed as one batch; `None` (the default) leaves it to the structure
-    /// ([`crate::accel::Accel::DEFAULT_MAX_CHUNK`]: 65,536 rays for the wide trees, whose
-    /// chunks walk incoherent rays as one stream; 1,048,576 for the grids and kd-tree, which take one ray at
-    /// a time; 131,072 for the binary trees, which move lanes and walk a stream per direction
-    /// octant). Bigger chunks share each node and leaf among more rays; smaller ones keep their
-    /// rays' records (64 bytes a ray) in the caches: the measured sweep is at
-    /// `wide::stream::CHUNK`. A chunk takes about 90 bytes of working memory a ray, which the
-    /// thread keeps for its next call (some 6 MiB per thread for the wide trees' chunks).
+    /// ([`crate::accel::Accel::max_chunk`]: 65,536 rays for the wide trees, whose chunks walk
+    /// incoherent rays as one stream, and 1,048,576 for incoherent rays on a wide tree beyond
+    /// the caches (over 16 MiB with its mesh), where every node fetch is a trip to memory;
+    /// 1,048,576 for the grids and kd-tree, which take one ray at a time; 131,072 for the
+    /// binary trees, which move lanes and walk a stream per direction octant). Bigger chunks
+    /// share each node and leaf among more rays; smaller ones keep their rays' records (64
+    /// bytes a ray) in the caches: the measured sweeps are at `wide::stream::CHUNK` and
+    /// `wide::LARGE_TREE_CHUNK`. A chunk takes about 90 bytes of working memory a ray, which
+    /// the thread keeps for its next call (some 6 MiB per thread for the wide trees' chunks,
+    /// up to 90 MiB on trees beyond the caches; on several threads chunks are at most half a
+    /// thread's share of the batch, see `batch::chunks`).
     pub max_chunk: Option<usize>,
     /// A node reached by fewer rays than this finishes its subtree one ray at a time (the
     /// wide trees' any-hit walks: fewer than twice this, since their streams carry the rays
@@ -180,7 +184,7 @@ impl BatchOptions {
         self
     }
     /// The smallest and the largest chunk for a structure whose own largest chunk is
-    /// `default_largest` ([`crate::accel::Accel::DEFAULT_MAX_CHUNK`]; both at least 1, the
+    /// `default_largest` ([`crate::accel::Accel::max_chunk`]; both at least 1, the
     /// smallest no larger than the largest).
     pub(crate) fn chunk_bounds(&self, default_largest: usize) -> (usize, usize) {
         let largest = self.max_chunk.unwrap_or(default_largest).max(1);

@@ -140,8 +140,9 @@ pub struct QueryArgs {
     #[arg(long, value_name = "N", value_parser = positive)]
     pub batch_size: Option<usize>,
     /// With --batched, the largest chunk the engine walks at once [default: the structure's
-    /// own: 65,536 rays for the wide trees, 1,048,576 for the grids and kd-tree, 131,072 for
-    /// the others]; larger chunks share nodes among more rays and take about 90 bytes a ray.
+    /// own: 65,536 rays for the wide trees (1,048,576 for incoherent rays on a tree of over
+    /// 16 MiB with its mesh), 1,048,576 for the grids and kd-tree, 131,072 for the others];
+    /// larger chunks share nodes among more rays and take about 90 bytes a ray.
     #[arg(long, value_name = "N", value_parser = positive)]
     pub max_chunk: Option<usize>,
     /// What the tree copies of its leaves' triangles in leaf order: nothing, the vertex
