@@ -44,6 +44,7 @@ pub mod catalog;
 pub mod geom;
 pub mod grid;
 pub mod hit;
+mod huge_pages;
 pub mod kdtree;
 pub mod mesh;
 mod parallel;

@@ -81,6 +81,18 @@ enum Slots {
     IdsAndCorners(Vec<u32>, Vec<[Vec3; 3]>),
 }
 
+impl Slots {
+    /// Asks for huge pages under the arrays (see `crate::huge_pages`).
+    fn advise_huge_pages(&self) {
+        use crate::huge_pages::advise;
+        match self {
+            Slots::Ids(ids) => advise(ids),
+            Slots::PackedIndicesAndId(packed) => advise(packed),
+            Slots::IdsAndCorners(ids, corners) => advise(ids) | advise(corners),
+        };
+    }
+}
+
 /// A slot of the index copy: its triangle's three vertex indices, 21 bits each in one 64-bit
 /// word, then its id, so that the read that starts a triangle's chain brings its id too. 12
 /// bytes a slot (`packed(4)`: 4-byte alignment, fields only ever read by value).
@@ -164,6 +176,7 @@ impl LeafTriangles {
                 Slots::IdsAndCorners(order, corners)
             }
         };
+        slots.advise_huge_pages();
         Self { mesh, slots, len }
     }
 

@@ -93,6 +93,7 @@ impl<N: NodeKind> WideBvh<N> {
         let root_bounds = built.nodes.first().map_or(Aabb::EMPTY, |n| n.bounds);
         let (nodes, root) =
             collapse::collapse(&built, options.wide_leaf_size).unwrap_or((Vec::new(), 0));
+        crate::huge_pages::advise(&nodes);
         Ok(Self {
             nodes,
             root,
