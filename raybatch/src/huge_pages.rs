@@ -67,7 +67,9 @@ mod tests {
     /// alone.
     #[test]
     fn advice_keeps_every_value() {
-        let values: Vec<u64> = (0..3_000_000u64).map(|k| k.wrapping_mul(0x9e37_79b9)).collect();
+        let values: Vec<u64> = (0..3_000_000u64)
+            .map(|k| k.wrapping_mul(0x9e37_79b9))
+            .collect();
         let copy = values.clone();
         advise(&values);
         assert_eq!(values, copy);

@@ -21,6 +21,8 @@ struct OneRay<'a, N: NodeKind, K, V> {
     visitor: &'a mut V,
     /// Whether the 8-wide box test may use AVX2: false in the baseline copy.
     avx2: bool,
+    /// Whether the loop prefetches the next pending child (`single::trace_from`).
+    prefetch: bool,
     kernel: std::marker::PhantomData<K>,
 }
 
@@ -30,14 +32,19 @@ impl<N: NodeKind, K: TriangleTest, V: Visitor> Loop for OneRay<'_, N, K, V> {
     fn run(self) -> f32 {
         let OneRay { tree, ray, id, .. } = self;
         let simd = BoxSimd::detect(self.avx2);
-        single::trace::<N, K, V>(tree, ray, id, self.stack, self.visitor, simd)
+        if self.prefetch {
+            single::trace::<N, K, V, true>(tree, ray, id, self.stack, self.visitor, simd)
+        } else {
+            single::trace::<N, K, V, false>(tree, ray, id, self.stack, self.visitor, simd)
+        }
     }
 }
 
-/// [`single::trace`], in the AVX2 copy if `avx2` and the CPU has it, else the baseline copy.
+/// [`single::trace`], in the AVX2 copy if `avx2` and the CPU has it, else the baseline copy;
+/// prefetching pending children if `prefetch`.
 #[inline]
 pub(crate) fn trace<N: NodeKind, K: TriangleTest, V: Visitor>(
-    avx2: bool,
+    (avx2, prefetch): (bool, bool),
     tree: &WideBvh<N>,
     ray: &PreparedRay,
     id: u32,
@@ -51,6 +58,7 @@ pub(crate) fn trace<N: NodeKind, K: TriangleTest, V: Visitor>(
         stack,
         visitor,
         avx2,
+        prefetch,
         kernel: std::marker::PhantomData,
     };
     avx2::run(one, avx2)

@@ -102,6 +102,14 @@ impl Stack {
         self.len = base + push(top, mask, entries, children, order);
     }
 
+    /// The top entry, left in place.
+    #[inline(always)]
+    pub(crate) fn peek(&self) -> Option<Pending> {
+        let top = self.len.checked_sub(1)?;
+        // SAFETY: the slot read is below `len`, so it was written (see `pop`).
+        Some(unsafe { self.slots[top % DEPTH_SLOTS].assume_init() })
+    }
+
     /// The top entry, removed.
     #[inline(always)]
     pub(crate) fn pop(&mut self) -> Option<Pending> {
@@ -205,6 +213,7 @@ mod tests {
                     }
                 }
             } else {
+                assert_eq!(stack.peek(), model.last().copied(), "step {step}");
                 assert_eq!(stack.pop(), model.pop(), "step {step}");
             }
             if rng.range(0.0, 1.0) < 0.001 {

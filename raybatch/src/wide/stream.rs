@@ -371,7 +371,7 @@ impl<N: NodeKind> Walk<'_, N> {
                 let id = self.batch_ids[i];
                 let mut tmax = ray.tmax;
                 let wide_ray = WideRay::new(ray, self.simd);
-                super::single::trace_from::<N, K, V>(
+                super::single::trace_from::<N, K, V, false>(
                     self.tree,
                     (ray, &wide_ray, id),
                     list.word,
