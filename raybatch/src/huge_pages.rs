@@ -5,7 +5,11 @@
 //! vertex read is likely to need a page walk as well as a trip to memory (a core's second-level
 //! TLB covers 16 MiB of 4 KiB pages), and on a virtual machine a page walk is two nested ones.
 //! Embree asks the kernel for transparent huge pages for its trees; we do the same for the
-//! arrays a walk reads: tree nodes, leaf copies, mesh vertices and indices.
+//! arrays a walk reads: tree nodes, leaf copies, mesh vertices and indices. Measured on the
+//! 1M-triangle terrain (`bvh8`, one thread, 1M incoherent rays one at a time, best of 4 x 3
+//! passes alternated): 498.5 -> 459.6 ms; with every allocation on huge pages (the kernel's
+//! `enabled` set to `always`) 371.5 -> 349.9. Batches, which share nodes among rays, gain
+//! little (sightlines, any hit: 71.6 -> 69.9).
 //!
 //! [`advise`] is advice only: it never moves, frees or changes a value (the kernel copies the
 //! pages it merges, contents and addresses unchanged), so it cannot change an answer. It works
