@@ -33,7 +33,7 @@ pub mod node8;
 #[allow(unsafe_code)]
 pub(crate) mod simd;
 pub(crate) mod single;
-// One unsafe read, of a slot the stack wrote (see `Stack::pop`).
+// Unsafe reads (`Stack::pop`, `Stack::peek`) of slots the stack wrote.
 #[allow(unsafe_code)]
 pub(crate) mod stack;
 pub(crate) mod stream;

@@ -189,9 +189,9 @@ mod tests {
         }
     }
 
-    /// A long walk of random pushes and pops, from a stack made without writing its slots,
-    /// against a `Vec` doing the same: the same entries come back in the same order (the
-    /// stack's one unsafe read only ever meets slots it wrote).
+    /// A long walk of random pushes, peeks and pops, from a stack made without writing its
+    /// slots, against a `Vec` doing the same: the same entries come back in the same order
+    /// (the stack's unsafe reads only ever meet slots it wrote).
     #[test]
     fn pushes_and_pops_match_a_vec() {
         let mut rng = TestRng::new(5);
