@@ -224,6 +224,8 @@ pub struct RayStream<'a> {
     /// Every ray touches the structure's [`Accel::cull_bounds`]: the batch preparation tested
     /// them, so the walk need not test its root box again.
     pub(crate) in_cull_bounds: bool,
+    /// The stream is a dense octant of its chunk ([`RayStream::is_dense_octant`]).
+    pub(crate) dense_octant: bool,
 }
 
 impl<'a> RayStream<'a> {
@@ -249,6 +251,7 @@ impl<'a> RayStream<'a> {
             partitioner,
             options,
             in_cull_bounds: false,
+            dense_octant: false,
         }
     }
 
@@ -259,6 +262,21 @@ impl<'a> RayStream<'a> {
             in_cull_bounds: tested,
             ..self
         }
+    }
+
+    /// The same stream, marked as a dense octant of its chunk if `dense`.
+    pub(crate) fn dense_octant(self, dense: bool) -> Self {
+        Self {
+            dense_octant: dense,
+            ..self
+        }
+    }
+
+    /// True if the stream's rays share one direction octant that holds at least 3/16 of its
+    /// chunk's valid rays, where incoherent rays hold about an eighth: coherent rays, such
+    /// as a camera's (see `batch::group::is_dense_octant`).
+    pub fn is_dense_octant(&self) -> bool {
+        self.dense_octant
     }
 
     /// True if every ray is known to touch the structure's [`Accel::cull_bounds`], which is
@@ -421,6 +439,7 @@ impl<'a> RayStream<'a> {
             partitioner: self.partitioner,
             options: self.options,
             in_cull_bounds: self.in_cull_bounds,
+            dense_octant: self.dense_octant,
         }
     }
 

@@ -73,11 +73,12 @@ impl<S> Chunk<'_, S> {
     /// Hands each group to [`Accel::trace_stream`] with `visitor`.
     fn trace<A: Accel<Scratch = S>, V: Visitor>(&mut self, accel: &A, visitor: &mut V) {
         let options = self.options;
-        for (start, end, octant_mask) in self.groups.iter() {
+        for (start, end, octant_mask, dense) in self.groups.iter() {
             let partitioner = self.partitioner;
             let storage = self.storage.reborrow();
             let mut stream = RayStream::new(storage, start, end, octant_mask, partitioner, options)
-                .culled(self.culled);
+                .culled(self.culled)
+                .dense_octant(dense);
             // Rays of a group have different dominant axes, so the watertight kernel dispatches
             // per ray (`Watertight` calls the same `WatertightAxis` function as the single-ray
             // path).

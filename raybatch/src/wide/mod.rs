@@ -298,18 +298,6 @@ const SHORT_STREAM_RAYS: usize = 2048;
 /// 311.5 vs 804.8.
 const SHORT_INTERLEAVE_ABOVE_BYTES: usize = 8 << 20;
 
-/// A stream of one direction octant at least this long is taken for a coherent group (a
-/// camera's: `batch::group` keeps an octant apart when it holds a quarter of a chunk), whose
-/// rays take much the same paths, so [`Interleave::Auto`] shares nodes among them even on
-/// trees beyond the caches. Measured on the 1M-triangle terrain (`bvh8`, 56 MB with its mesh;
-/// one thread, 1M camera rays, best of 2 x 2 passes, ms): in one call side by side 88.9, nodes
-/// shared 51.1; in calls of 4,096 rays 90.6 against 57.7; in calls of 1,024 95.1 against 95.1;
-/// one ray at a time 89.7-94.3. Incoherent rays stay side by side (mixed streams: 181.9
-/// against 228.1 shared). Octant streams of incoherent rays this long (the `SeparateOctants`
-/// ordering, or closest-hit chunks of over 32k rays that the thread's mixing choice keeps
-/// apart) now share nodes on such trees too.
-const SHARED_OCTANT_RAYS: usize = 4_096;
-
 /// A stream at least this long shares nodes on any tree, whatever its rays' directions: enough
 /// rays reach each node that one fetch of it serves many of them, where side by side each ray
 /// waits on its own fetch. Halved for visitors that end rays ([`Visitor::ENDS_RAYS`]: any
@@ -356,12 +344,22 @@ fn coherent(rays: &[Ray]) -> bool {
 }
 
 /// [`Interleave::Auto`]'s choice for a tree whose walks read `working_set` bytes and a stream
-/// of `rays` rays of the octants `octant_mask` (0 for mixed), for a visitor that ends rays
-/// (`ends_rays`) or not: true to walk the rays side by side.
-fn interleaves(working_set: usize, rays: usize, octant_mask: u8, ends_rays: bool) -> bool {
-    let coherent = octant_mask != 0 && rays >= SHARED_OCTANT_RAYS;
+/// of `rays` rays, a dense octant of its chunk or not ([`RayStream::is_dense_octant`]), for a
+/// visitor that ends rays (`ends_rays`) or not: true to walk the rays side by side.
+///
+/// A dense octant's rays are coherent (a camera's) and take much the same paths: they share
+/// nodes even on trees beyond the caches, however short the stream. Measured on the
+/// 1M-triangle terrain (`bvh8`, 56 MB with its mesh; one thread, 1M camera rays, best of 2 x 2
+/// passes, ms): in one call side by side 88.9, nodes shared 51.1; in calls of 4,096 rays 90.6
+/// against 57.7; in calls of 1,024 95.1 against 95.1; one ray at a time 89.7-94.3; on the
+/// bunny subdivided to 1.1M triangles (`raybatch rays --set camera`, best of 3 passes), calls of
+/// 4,096: 147.4 side by side, 76.5 shared, 138.5 one ray at a time. (Until the groups said
+/// which octants are dense, an octant stream of at least 4,096 rays was taken for a camera's:
+/// its octants in calls of 4,096 were shorter and walked side by side, slower than one ray at
+/// a time.)
+fn interleaves(working_set: usize, rays: usize, dense_octant: bool, ends_rays: bool) -> bool {
     let dense = rays >= DENSE_STREAM_RAYS >> u32::from(ends_rays);
-    !(coherent || dense)
+    !(dense_octant || dense)
         && (working_set > INTERLEAVE_ABOVE_BYTES
             || (rays < SHORT_STREAM_RAYS && working_set > SHORT_INTERLEAVE_ABOVE_BYTES))
 }
@@ -379,7 +377,7 @@ impl<N: NodeKind> WideBvh<N> {
             Interleave::Auto => interleaves(
                 self.working_set_bytes(),
                 stream.len(),
-                stream.octant_mask(),
+                stream.is_dense_octant(),
                 ends_rays,
             ),
         }
@@ -418,24 +416,24 @@ mod tests {
     use crate::test_support::{bunny, random_rays};
     use crate::{BatchOptions, Hit, Interleave, Kernel, Ray};
 
-    /// The automatic choice: small trees share nodes; trees beyond the caches walk mixed and
-    /// short streams side by side, but share nodes among a long stream of one octant (a
-    /// camera's coherent rays) and among dense streams (half as long for any hit).
+    /// The automatic choice: small trees share nodes; trees beyond the caches walk short
+    /// streams side by side, but share nodes among a dense octant's rays (a camera's coherent
+    /// rays) and among long streams (half as long for any hit).
     #[test]
     fn the_automatic_engine_choice() {
         let (small, mid, large) = (4 << 20, 12 << 20, 64 << 20);
-        let (mixed, one_octant) = (0, 1 << 3);
+        let (incoherent, dense_octant) = (false, true);
         for ends in [false, true] {
-            assert!(!interleaves(small, 100, mixed, ends));
-            assert!(!interleaves(small, 100_000, one_octant, ends));
-            assert!(interleaves(mid, 1_000, mixed, ends) && !interleaves(mid, 4_096, mixed, ends));
-            assert!(interleaves(large, 32_768, mixed, ends));
-            assert!(interleaves(large, SHARED_OCTANT_RAYS - 1, one_octant, ends));
-            assert!(!interleaves(large, SHARED_OCTANT_RAYS, one_octant, ends));
-            assert!(!interleaves(large, DENSE_STREAM_RAYS, mixed, ends));
+            assert!(!interleaves(small, 100, incoherent, ends));
+            assert!(!interleaves(small, 100_000, dense_octant, ends));
+            assert!(interleaves(mid, 1_000, incoherent, ends));
+            assert!(!interleaves(mid, 4_096, incoherent, ends));
+            assert!(interleaves(large, 32_768, incoherent, ends));
+            assert!(!interleaves(large, 300, dense_octant, ends));
+            assert!(!interleaves(large, DENSE_STREAM_RAYS, incoherent, ends));
         }
-        assert!(interleaves(large, 65_536, mixed, false));
-        assert!(!interleaves(large, 65_536, mixed, true));
+        assert!(interleaves(large, 65_536, incoherent, false));
+        assert!(!interleaves(large, 65_536, incoherent, true));
     }
 
     /// Trees beyond the caches take longer chunks; a permuted tree takes its inner tree's.
