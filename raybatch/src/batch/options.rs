@@ -60,11 +60,12 @@ impl BatchOrdering {
 /// others ignore it.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 pub enum Interleave {
-    /// The structure decides by its size: a wide tree interleaves when its nodes, leaf
-    /// order and mesh pass 16 MiB, where waiting on memory dominates, and for streams of
-    /// fewer than 2,048 rays once they pass 8 MiB, where few rays share each node; but never
-    /// for a stream of one direction octant of at least 4,096 rays (a camera's coherent
-    /// rays, which share most nodes).
+    /// The structure decides by its size and the stream: a wide tree interleaves when its
+    /// nodes, leaf order and mesh pass 16 MiB, where waiting on memory dominates, and for
+    /// streams of fewer than 2,048 rays once they pass 8 MiB, where few rays share each node;
+    /// but never for a dense octant's stream ([`crate::accel::RayStream::is_dense_octant`]: a
+    /// camera's coherent rays, which share most nodes) nor for a stream of at least 131,072
+    /// rays (65,536 for any hit), which shares each node fetch among many rays.
     #[default]
     Auto,
     /// Always walk rays side by side.

@@ -83,8 +83,8 @@ pub type QuantizedWideTree = WideBvh<QuantizedWideNode>;
 
 /// The 8-wide tree, the crate's default structure: about a third fewer node visits than the
 /// 4-wide one per ray; its batches use the same stream engine as the 4-wide tree's (nodes
-/// shared; side by side on large trees and short streams), at 0.87-1.04x its speed (more box
-/// tests per ray; 0.97-1.15x in calls of 4,096 rays).
+/// shared; side by side for short incoherent streams on large trees), at 0.87-1.04x its
+/// speed (more box tests per ray; 0.97-1.15x in calls of 4,096 rays).
 pub type WideTree8 = WideBvh<WideNode8>;
 
 impl<N: NodeKind> WideBvh<N> {
@@ -251,8 +251,9 @@ impl<N: NodeKind> Accel for WideBvh<N> {
         dispatch::trace::<N, K, V>((true, prefetch), self, ray, 0, &mut stack, visitor);
     }
 
-    /// Rays side by side on large trees and short streams ([`Interleave::Auto`]), else nodes
-    /// shared by the rays that reach them (`stream`, for every layout).
+    /// Rays side by side for short incoherent streams on large trees ([`Interleave::Auto`]: see
+    /// [`interleaves`]), else nodes shared by the rays that reach them (`stream`, for every
+    /// layout).
     fn trace_stream<K: TriangleTest, V: Visitor>(
         &self,
         stream: &mut RayStream<'_>,
