@@ -214,8 +214,8 @@ impl<N: NodeKind> Accel for WideBvh<N> {
     const MIXES_SMALL_OCTANTS: bool = true;
     const DEFAULT_MAX_CHUNK: usize = stream::CHUNK;
 
-    /// [`LARGE_TREE_CHUNK`] for incoherent rays on a tree beyond the caches, else
-    /// [`stream::CHUNK`].
+    /// 1,048,576 rays (`LARGE_TREE_CHUNK`) for incoherent rays on a tree beyond the caches
+    /// (over 16 MiB with its mesh), else 65,536 (`stream::CHUNK`).
     fn max_chunk(&self, rays: &[Ray]) -> usize {
         if self.beyond_caches && !coherent(rays) {
             LARGE_TREE_CHUNK
@@ -252,7 +252,7 @@ impl<N: NodeKind> Accel for WideBvh<N> {
     }
 
     /// Rays side by side for short incoherent streams on large trees ([`Interleave::Auto`]: see
-    /// [`interleaves`]), else nodes shared by the rays that reach them (`stream`, for every
+    /// `interleaves`), else nodes shared by the rays that reach them (`stream`, for every
     /// layout).
     fn trace_stream<K: TriangleTest, V: Visitor>(
         &self,
