@@ -344,9 +344,27 @@ fn coherent(rays: &[Ray]) -> bool {
     sampled > 0 && counts.iter().any(|&count| 4 * count >= sampled)
 }
 
-/// [`Interleave::Auto`]'s choice for a tree whose walks read `working_set` bytes and a stream
-/// of `rays` rays, a dense octant of its chunk or not ([`RayStream::is_dense_octant`]), for a
-/// visitor that ends rays (`ends_rays`) or not: true to walk the rays side by side.
+/// What [`interleaves`] looks at in a stream.
+#[derive(Clone, Copy, Debug)]
+struct StreamShape {
+    rays: usize,
+    /// All its rays share one direction octant.
+    one_octant: bool,
+    /// It is a dense octant of its chunk ([`RayStream::is_dense_octant`]).
+    dense_octant: bool,
+}
+
+/// A stream of one octant at least this long shares nodes on trees beyond the caches even when
+/// its octant is not dense (the `SeparateOctants` ordering, or closest-hit chunks that the
+/// thread's mixing choice keeps apart): each node's children come nearest first for all its
+/// rays, so a closest-hit stream drops far children early. Terrain sightlines, closest hit,
+/// `--ordering separate-octants`, one call of 1M rays (octant streams of some 125k rays), in
+/// one race each: shared 246.0 ms, side by side 352.0 (incoherent rays: 218.6 and 224.5).
+const SHARED_OCTANT_RAYS: usize = 4_096;
+
+/// [`Interleave::Auto`]'s choice for a tree whose walks read `working_set` bytes and a
+/// `stream`, for a visitor that ends rays (`ends_rays`) or not: true to walk the rays side by
+/// side.
 ///
 /// A dense octant's rays are coherent (a camera's) and take much the same paths: they share
 /// nodes even on trees beyond the caches, however short the stream. Measured on the
@@ -355,12 +373,14 @@ fn coherent(rays: &[Ray]) -> bool {
 /// against 57.7; in calls of 1,024 95.1 against 95.1; one ray at a time 89.7-94.3; on the
 /// bunny subdivided to 1.1M triangles (`raybatch rays --set camera`, best of 3 passes), calls of
 /// 4,096: 147.4 side by side, 76.5 shared, 138.5 one ray at a time. (Until the groups said
-/// which octants are dense, an octant stream of at least 4,096 rays was taken for a camera's:
-/// its octants in calls of 4,096 were shorter and walked side by side, slower than one ray at
-/// a time.)
-fn interleaves(working_set: usize, rays: usize, dense_octant: bool, ends_rays: bool) -> bool {
+/// which octants are dense, only octant streams of at least [`SHARED_OCTANT_RAYS`] shared
+/// nodes there: a camera's octants in calls of 4,096 were shorter, and walked side by side
+/// ran slower than one ray at a time.)
+fn interleaves(working_set: usize, stream: StreamShape, ends_rays: bool) -> bool {
+    let rays = stream.rays;
+    let coherent = stream.dense_octant || (stream.one_octant && rays >= SHARED_OCTANT_RAYS);
     let dense = rays >= DENSE_STREAM_RAYS >> u32::from(ends_rays);
-    !(dense_octant || dense)
+    !(coherent || dense)
         && (working_set > INTERLEAVE_ABOVE_BYTES
             || (rays < SHORT_STREAM_RAYS && working_set > SHORT_INTERLEAVE_ABOVE_BYTES))
 }
@@ -375,12 +395,14 @@ impl<N: NodeKind> WideBvh<N> {
         match stream.options().interleave {
             Interleave::Always => true,
             Interleave::Never => false,
-            Interleave::Auto => interleaves(
-                self.working_set_bytes(),
-                stream.len(),
-                stream.is_dense_octant(),
-                ends_rays,
-            ),
+            Interleave::Auto => {
+                let shape = StreamShape {
+                    rays: stream.len(),
+                    one_octant: stream.octant_mask() != 0,
+                    dense_octant: stream.is_dense_octant(),
+                };
+                interleaves(self.working_set_bytes(), shape, ends_rays)
+            }
         }
     }
 
@@ -423,18 +445,32 @@ mod tests {
     #[test]
     fn the_automatic_engine_choice() {
         let (small, mid, large) = (4 << 20, 12 << 20, 64 << 20);
-        let (incoherent, dense_octant) = (false, true);
+        let mixed = |rays| StreamShape {
+            rays,
+            one_octant: false,
+            dense_octant: false,
+        };
+        let octant = |rays| StreamShape {
+            one_octant: true,
+            ..mixed(rays)
+        };
+        let dense = |rays| StreamShape {
+            dense_octant: true,
+            ..octant(rays)
+        };
         for ends in [false, true] {
-            assert!(!interleaves(small, 100, incoherent, ends));
-            assert!(!interleaves(small, 100_000, dense_octant, ends));
-            assert!(interleaves(mid, 1_000, incoherent, ends));
-            assert!(!interleaves(mid, 4_096, incoherent, ends));
-            assert!(interleaves(large, 32_768, incoherent, ends));
-            assert!(!interleaves(large, 300, dense_octant, ends));
-            assert!(!interleaves(large, DENSE_STREAM_RAYS, incoherent, ends));
+            assert!(!interleaves(small, mixed(100), ends));
+            assert!(!interleaves(small, dense(100_000), ends));
+            assert!(interleaves(mid, mixed(1_000), ends));
+            assert!(!interleaves(mid, mixed(4_096), ends));
+            assert!(interleaves(large, mixed(32_768), ends));
+            assert!(!interleaves(large, dense(300), ends));
+            assert!(interleaves(large, octant(SHARED_OCTANT_RAYS - 1), ends));
+            assert!(!interleaves(large, octant(SHARED_OCTANT_RAYS), ends));
+            assert!(!interleaves(large, mixed(DENSE_STREAM_RAYS), ends));
         }
-        assert!(interleaves(large, 65_536, incoherent, false));
-        assert!(!interleaves(large, 65_536, incoherent, true));
+        assert!(interleaves(large, mixed(65_536), false));
+        assert!(!interleaves(large, mixed(65_536), true));
     }
 
     /// Trees beyond the caches take longer chunks; a permuted tree takes its inner tree's.
