@@ -64,8 +64,9 @@ pub enum Interleave {
     /// nodes, leaf order and mesh pass 16 MiB, where waiting on memory dominates, and for
     /// streams of fewer than 2,048 rays once they pass 8 MiB, where few rays share each node;
     /// but never for a dense octant's stream ([`crate::accel::RayStream::is_dense_octant`]: a
-    /// camera's coherent rays, which share most nodes) nor for a stream of at least 131,072
-    /// rays (65,536 for any hit), which shares each node fetch among many rays.
+    /// camera's coherent rays, which share most nodes) or an octant stream of at least 4,096
+    /// rays, nor for a stream of at least 131,072 rays (65,536 for any hit), which shares each
+    /// node fetch among many rays.
     #[default]
     Auto,
     /// Always walk rays side by side.
