@@ -27,39 +27,61 @@ const ADVISE_FROM_BYTES: usize = 2 * HUGE_PAGE;
 /// Asks for the whole 2 MiB pages inside `data` to be huge pages (see the module docs); the
 /// partial pages at either end stay as they are. True if the kernel merged them.
 pub(crate) fn advise<T>(data: &[T]) -> bool {
+    whole_huge_pages(data).is_some_and(|(start, len)| madvise::huge(start, len).collapsed)
+}
+
+/// The whole huge pages inside `data` as `(start, len)`, if it is large enough to advise.
+fn whole_huge_pages<T>(data: &[T]) -> Option<(usize, usize)> {
     let start = data.as_ptr() as usize;
     let bytes = size_of_val(data);
     if bytes < ADVISE_FROM_BYTES {
-        return false;
+        return None;
     }
     let first = start.next_multiple_of(HUGE_PAGE);
     let end = (start + bytes) / HUGE_PAGE * HUGE_PAGE;
-    first < end && madvise::huge(first, end - first)
+    (first < end).then_some((first, end - first))
+}
+
+/// What the kernel said to each advice.
+#[derive(Clone, Copy, Debug)]
+struct Advised {
+    /// `MADV_HUGEPAGE` taken: later pages of the range may be huge.
+    #[cfg_attr(not(test), allow(dead_code))]
+    marked: bool,
+    /// `MADV_COLLAPSE` taken: the range's pages were merged.
+    collapsed: bool,
 }
 
 #[cfg(all(target_os = "linux", target_env = "gnu"))]
 #[allow(unsafe_code)]
 mod madvise {
+    use super::Advised;
+
     /// `madvise(MADV_HUGEPAGE)` then `madvise(MADV_COLLAPSE)` on `len` bytes from `start`, both
-    /// multiples of the huge page size; true if both succeeded.
-    pub(super) fn huge(start: usize, len: usize) -> bool {
+    /// multiples of the huge page size.
+    pub(super) fn huge(start: usize, len: usize) -> Advised {
         let address = start as *mut libc::c_void;
         // SAFETY: the range lies inside one live allocation (a slice the caller borrows),
         // rounded inwards to whole pages. Both advices leave every byte of it as it was, at
         // the same address: they only choose the page size behind it. A failure (`EINVAL` on
         // older kernels, `ENOMEM`, `EAGAIN`) changes nothing.
-        unsafe {
-            libc::madvise(address, len, libc::MADV_HUGEPAGE) == 0
-                && libc::madvise(address, len, libc::MADV_COLLAPSE) == 0
-        }
+        let marked = unsafe { libc::madvise(address, len, libc::MADV_HUGEPAGE) } == 0;
+        // SAFETY: as above.
+        let collapsed = marked && unsafe { libc::madvise(address, len, libc::MADV_COLLAPSE) } == 0;
+        Advised { marked, collapsed }
     }
 }
 
 /// The portable twin: ordinary pages.
 #[cfg(not(all(target_os = "linux", target_env = "gnu")))]
 mod madvise {
-    pub(super) fn huge(_start: usize, _len: usize) -> bool {
-        false
+    use super::Advised;
+
+    pub(super) fn huge(_start: usize, _len: usize) -> Advised {
+        Advised {
+            marked: false,
+            collapsed: false,
+        }
     }
 }
 
@@ -68,7 +90,7 @@ mod tests {
     use super::*;
 
     /// Advice never changes a value, whether or not the kernel takes it; small arrays are left
-    /// alone.
+    /// alone; the range advised is whole huge pages inside the array.
     #[test]
     fn advice_keeps_every_value() {
         let values: Vec<u64> = (0..3_000_000u64)
@@ -77,7 +99,25 @@ mod tests {
         let copy = values.clone();
         advise(&values);
         assert_eq!(values, copy);
-        assert!(!advise(&values[..1000]));
+        assert!(!advise(&values[..1000]) && whole_huge_pages(&values[..1000]).is_none());
         assert!(!advise::<u64>(&[]));
+        let (start, len) = whole_huge_pages(&values).unwrap();
+        let array = values.as_ptr() as usize..values.as_ptr() as usize + 24_000_000;
+        assert!(start % HUGE_PAGE == 0 && len % HUGE_PAGE == 0 && len > 0);
+        assert!(array.start <= start && start + len <= array.end);
+    }
+
+    /// Where the kernel has transparent huge pages, it takes the first advice: the range is
+    /// valid (the second, `MADV_COLLAPSE`, may fail for want of memory or on older kernels).
+    #[test]
+    #[cfg(all(target_os = "linux", target_env = "gnu"))]
+    fn the_kernel_takes_the_advice() {
+        if !std::path::Path::new("/sys/kernel/mm/transparent_hugepage/enabled").exists() {
+            return;
+        }
+        let values = vec![7u8; 6 << 20];
+        let (start, len) = whole_huge_pages(&values).unwrap();
+        assert!(madvise::huge(start, len).marked);
+        assert!(values.iter().all(|&v| v == 7));
     }
 }

@@ -89,13 +89,18 @@ impl Groups {
 }
 
 /// True if an octant holding `count` of a chunk's `valid` rays is dense: at least 3/16 of
-/// them. Incoherent rays hold about an eighth each (with 4,096 rays, 3/16 is twelve standard
-/// deviations above it); a camera's rays, which look into at most four octants (the sign of
-/// the view axis is fixed), hold a quarter or more in at least one, and nearby pixels take
-/// much the same paths: such a group shares nodes well whatever its length.
+/// them, in a chunk of at least [`DENSE_MIN_RAYS`] valid rays. Incoherent rays hold about an
+/// eighth each (with 1,024 rays, 3/16 is six standard deviations above it; in much smaller
+/// chunks chance alone would make some octants dense); a camera's rays, which look into at
+/// most four octants (the sign of the view axis is fixed), hold a quarter or more in at least
+/// one, and nearby pixels take much the same paths: such a group shares nodes well whatever
+/// its length.
 pub(crate) fn is_dense_octant(count: usize, valid: usize) -> bool {
-    count > 0 && 16 * count >= 3 * valid
+    valid >= DENSE_MIN_RAYS && 16 * count >= 3 * valid
 }
+
+/// Chunks with fewer valid rays have no dense octant (see [`is_dense_octant`]).
+const DENSE_MIN_RAYS: usize = 1024;
 
 /// Prepares the chunk's rays into `lanes`, grouped (see the module docs), those that miss
 /// `cull` left out; `keys` is scratch.
@@ -386,7 +391,25 @@ mod tests {
         let (_, masks, dense) = group_starts(&lopsided, Grouping::LargeOctants, &mut keys);
         assert_eq!(dense.count_ones(), 3);
         assert!((0..GROUPS).all(|g| dense >> g & 1 == 0 || masks[g] != 0));
-        assert!(is_dense_octant(3, 16) && !is_dense_octant(2, 16) && !is_dense_octant(0, 0));
+        assert!(is_dense_octant(192, 1024) && !is_dense_octant(191, 1024));
+        assert!(!is_dense_octant(3, 16) && !is_dense_octant(0, 0));
+        // A dense octant that holds less than a quarter, and is the first of the small ones,
+        // becomes the mixed group: no octant's, so not dense (3/16 and 1/16 mixed, three
+        // quarters apart).
+        let dir = |octant: usize| {
+            let sign = |bit: usize| if octant >> bit & 1 == 1 { -1.0 } else { 1.0 };
+            Vec3::new(sign(0), sign(1), sign(2))
+        };
+        let shares = [(0, 768), (1, 256), (2, 1024), (3, 1024), (4, 1024)];
+        let rays: Vec<Ray> = shares
+            .iter()
+            .flat_map(|&(octant, n)| std::iter::repeat_n(Ray::new(Vec3::ZERO, dir(octant)), n))
+            .collect();
+        let (_, masks, dense) = group_starts(&rays, Grouping::LargeOctants, &mut keys);
+        assert_eq!(masks[0], 0, "octants 0 and 1 are mixed");
+        assert_eq!(dense, 0b11100);
+        let (_, _, dense) = group_starts(&rays, Grouping::ByOctant, &mut keys);
+        assert_eq!(dense, 0b11101);
     }
 
     /// Rays that miss the cull box get no lane (their position maps to the dead slot), the

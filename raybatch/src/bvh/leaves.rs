@@ -176,7 +176,6 @@ impl LeafTriangles {
                 Slots::IdsAndCorners(order, corners)
             }
         };
-        slots.advise_huge_pages();
         Self { mesh, slots, len }
     }
 
@@ -188,6 +187,13 @@ impl LeafTriangles {
     /// The mesh the slots refer to.
     pub(crate) fn mesh(&self) -> &Arc<Mesh> {
         &self.mesh
+    }
+
+    /// Asks for huge pages under the slots and the mesh's arrays (see `crate::huge_pages`).
+    pub(crate) fn advise_huge_pages(&self) {
+        self.slots.advise_huge_pages();
+        crate::huge_pages::advise(self.mesh.vertices());
+        crate::huge_pages::advise(self.mesh.triangles());
     }
 
     /// Puts `mesh` (the same triangles, moved vertices) in place of the mesh, refreshing the

@@ -123,8 +123,6 @@ impl Mesh {
         validate_counts(vertices.len(), triangles.len())?;
         validate_vertices(&vertices)?;
         validate_indices(&triangles, vertices.len())?;
-        crate::huge_pages::advise(&vertices);
-        crate::huge_pages::advise(&triangles);
         Ok(Self {
             vertices,
             triangles,

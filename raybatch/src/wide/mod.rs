@@ -47,6 +47,7 @@ use crate::batch::Interleave;
 use crate::bvh::build::{BuildError, BuildOptions, build};
 use crate::bvh::leaves::LeafTriangles;
 use crate::bvh::nodes::leaf_word;
+use crate::geom::ray::flushed_if_valid;
 use crate::geom::{Aabb, PreparedRay, Ray, TriangleTest, octant};
 use crate::hit::Visitor;
 use crate::mesh::Mesh;
@@ -97,7 +98,6 @@ impl<N: NodeKind> WideBvh<N> {
         let root_bounds = built.nodes.first().map_or(Aabb::EMPTY, |n| n.bounds);
         let (nodes, root) =
             collapse::collapse(&built, options.wide_leaf_size).unwrap_or((Vec::new(), 0));
-        crate::huge_pages::advise(&nodes);
         let copy = options.leaf_copy.or(N::LEAF_COPY);
         let mut tree = Self {
             nodes,
@@ -107,6 +107,11 @@ impl<N: NodeKind> WideBvh<N> {
             beyond_caches: false,
         };
         tree.beyond_caches = tree.working_set_bytes() > INTERLEAVE_ABOVE_BYTES;
+        if tree.beyond_caches {
+            // Only there: merging pages is synchronous work at build time (see `huge_pages`).
+            crate::huge_pages::advise(&tree.nodes);
+            tree.triangles.advise_huge_pages();
+        }
         Ok(tree)
     }
 
@@ -332,15 +337,16 @@ const COHERENCE_SAMPLE: usize = 1024;
 /// enough in chunks of [`stream::CHUNK`], and a longer chunk costs them more in records out of
 /// the caches than it saves (terrain, `bvh8`, 1M camera rays in one call, one thread, best of
 /// 4 x 3 passes: 62.9 ms in chunks of 65,536, 72.0 in chunks of 1M). Incoherent rays spread
-/// over the octants, an eighth in each (with 1,024 rays sampled, a quarter is six standard
-/// deviations above an eighth).
+/// over the octants, an eighth in each (with 1,024 rays sampled, a quarter is twelve standard
+/// deviations above an eighth). Invalid rays (zero or NaN directions, which miss) are not
+/// counted.
 fn coherent(rays: &[Ray]) -> bool {
     let step = rays.len().div_ceil(COHERENCE_SAMPLE).max(1);
     let mut counts = [0usize; 8];
-    for ray in rays.iter().step_by(step) {
-        counts[octant(ray.dir) as usize] += 1;
+    for dir in rays.iter().step_by(step).filter_map(flushed_if_valid) {
+        counts[octant(dir) as usize] += 1;
     }
-    let sampled = rays.len().div_ceil(step);
+    let sampled: usize = counts.iter().sum();
     sampled > 0 && counts.iter().any(|&count| 4 * count >= sampled)
 }
 
@@ -378,9 +384,9 @@ const SHARED_OCTANT_RAYS: usize = 4_096;
 /// ran slower than one ray at a time.)
 fn interleaves(working_set: usize, stream: StreamShape, ends_rays: bool) -> bool {
     let rays = stream.rays;
-    let coherent = stream.dense_octant || (stream.one_octant && rays >= SHARED_OCTANT_RAYS);
-    let dense = rays >= DENSE_STREAM_RAYS >> u32::from(ends_rays);
-    !(coherent || dense)
+    let shares_paths = stream.dense_octant || (stream.one_octant && rays >= SHARED_OCTANT_RAYS);
+    let long = rays >= DENSE_STREAM_RAYS >> u32::from(ends_rays);
+    !(shares_paths || long)
         && (working_set > INTERLEAVE_ABOVE_BYTES
             || (rays < SHORT_STREAM_RAYS && working_set > SHORT_INTERLEAVE_ABOVE_BYTES))
 }
@@ -491,6 +497,10 @@ mod tests {
             })
             .collect();
         assert!(coherent(&camera) && !coherent(&incoherent) && !coherent(&[]));
+        // Invalid rays (a zero direction's signs say octant 0) are not counted.
+        let mut padded = incoherent.clone();
+        padded.extend(std::iter::repeat_n(Ray::new(Vec3::ZERO, Vec3::ZERO), 5_000));
+        assert!(!coherent(&padded));
         assert_eq!(large.max_chunk(&camera), stream::CHUNK);
         let ids = (0..large.triangle_count() as u32).collect();
         let permuted = crate::permuted::Permuted::new(large, ids);
