@@ -5,7 +5,10 @@
 //! vertex read is likely to need a page walk as well as a trip to memory (a core's second-level
 //! TLB covers 16 MiB of 4 KiB pages), and on a virtual machine a page walk is two nested ones.
 //! Embree asks the kernel for transparent huge pages for its trees; we do the same for the
-//! arrays a walk reads: tree nodes, leaf copies, mesh vertices and indices. Measured on the
+//! arrays a walk reads of a wide tree beyond the caches (`WideBvh::build`): its nodes, its
+//! leaf copy, its mesh's vertices and indices. Only there: merging pages is synchronous work
+//! (the kernel may compact memory to find huge pages), which smaller trees do not repay, and
+//! the advice stays on the address range. Measured on the
 //! 1M-triangle terrain (`bvh8`, one thread, 1M incoherent rays one at a time, best of 4 x 3
 //! passes alternated): 498.5 -> 459.6 ms; with every allocation on huge pages (the kernel's
 //! `enabled` set to `always`) 371.5 -> 349.9. Batches, which share nodes among rays, gain
