@@ -102,6 +102,20 @@ pub(crate) fn is_dense_octant(count: usize, valid: usize) -> bool {
 /// Chunks with fewer valid rays have no dense octant (see [`is_dense_octant`]).
 const DENSE_MIN_RAYS: usize = 1024;
 
+/// True if a sample of `rays` (evenly spaced, at least [`DENSE_MIN_RAYS`] of them when the batch
+/// has that many) has a dense octant ([`is_dense_octant`]): a camera's rays, before the batch is
+/// cut into chunks (the wide trees size their chunks by it). Invalid rays (zero or NaN
+/// directions, which miss) are not counted, as the groups do not count them.
+pub(crate) fn has_dense_octant(rays: &[Ray]) -> bool {
+    let step = (rays.len() / DENSE_MIN_RAYS).max(1);
+    let mut counts = [0usize; GROUPS];
+    for dir in rays.iter().step_by(step).filter_map(flushed_if_valid) {
+        counts[octant(dir) as usize] += 1;
+    }
+    let sampled: usize = counts.iter().sum();
+    counts.iter().any(|&count| is_dense_octant(count, sampled))
+}
+
 /// Prepares the chunk's rays into `lanes`, grouped (see the module docs), those that miss
 /// `cull` left out; `keys` is scratch.
 pub(crate) fn prepare(
@@ -311,7 +325,7 @@ fn group_starts(
         .filter(|&g| by_octant && is_dense_octant(counts[g], valid))
         .fold(0u8, |bits, g| bits | 1 << g);
     if grouping == Grouping::LargeOctants {
-        mix_small_octants(keys, &mut counts, &mut masks);
+        mix_small_octants(keys, (&mut counts, valid), &mut masks);
     }
     // A group that became the mixed one is no octant's.
     let dense = (0..GROUPS)
@@ -327,8 +341,11 @@ fn group_starts(
 /// [`Grouping::LargeOctants`]: moves the rays of the octants holding less than a quarter of
 /// the valid rays (if there are two such octants or more) into the group of the first of them,
 /// whose mask becomes 0, and counts them there.
-fn mix_small_octants(keys: &mut [u8], counts: &mut [usize; GROUPS + 1], masks: &mut [u8; GROUPS]) {
-    let valid: usize = counts[..GROUPS].iter().sum();
+fn mix_small_octants(
+    keys: &mut [u8],
+    (counts, valid): (&mut [usize; GROUPS + 1], usize),
+    masks: &mut [u8; GROUPS],
+) {
     // One bit per small octant (no allocation: this runs once per chunk, per call).
     let small = (0..GROUPS)
         .filter(|&g| counts[g] > 0 && 4 * counts[g] < valid)

@@ -86,10 +86,17 @@ impl Slots {
     fn advise_huge_pages(&self) {
         use crate::huge_pages::advise;
         match self {
-            Slots::Ids(ids) => advise(ids),
-            Slots::PackedIndicesAndId(packed) => advise(packed),
-            Slots::IdsAndCorners(ids, corners) => advise(ids) | advise(corners),
-        };
+            Slots::Ids(ids) => {
+                advise(ids);
+            }
+            Slots::PackedIndicesAndId(packed) => {
+                advise(packed);
+            }
+            Slots::IdsAndCorners(ids, corners) => {
+                advise(ids);
+                advise(corners);
+            }
+        }
     }
 }
 

@@ -44,11 +44,11 @@ use glam::Vec3;
 
 use crate::accel::{Accel, Footprint, RayStream};
 use crate::batch::Interleave;
+use crate::batch::group::has_dense_octant;
 use crate::bvh::build::{BuildError, BuildOptions, build};
 use crate::bvh::leaves::LeafTriangles;
 use crate::bvh::nodes::leaf_word;
-use crate::geom::ray::flushed_if_valid;
-use crate::geom::{Aabb, PreparedRay, Ray, TriangleTest, octant};
+use crate::geom::{Aabb, PreparedRay, Ray, TriangleTest};
 use crate::hit::Visitor;
 use crate::mesh::Mesh;
 pub use kind::NodeKind;
@@ -220,9 +220,13 @@ impl<N: NodeKind> Accel for WideBvh<N> {
     const DEFAULT_MAX_CHUNK: usize = stream::CHUNK;
 
     /// 1,048,576 rays (`LARGE_TREE_CHUNK`) for incoherent rays on a tree beyond the caches
-    /// (over 16 MiB with its mesh), else 65,536 (`stream::CHUNK`).
+    /// (over 16 MiB with its mesh), else 65,536 (`stream::CHUNK`). A batch with a dense octant
+    /// (`batch::group::has_dense_octant`: a camera's rays) keeps 65,536: its rays share nodes
+    /// well enough in such chunks, and a longer chunk costs them more in records out of the
+    /// caches than it saves (terrain, `bvh8`, 1M camera rays in one call, one thread, best of
+    /// 4 x 3 passes: 62.9 ms in chunks of 65,536, 72.0 in chunks of 1M).
     fn max_chunk(&self, rays: &[Ray]) -> usize {
-        if self.beyond_caches && !coherent(rays) {
+        if self.beyond_caches && !has_dense_octant(rays) {
             LARGE_TREE_CHUNK
         } else {
             Self::DEFAULT_MAX_CHUNK
@@ -328,27 +332,6 @@ const DENSE_STREAM_RAYS: usize = 1 << 17;
 /// / 149; line of sight any hit 68, 147 / 121 / 87 / 55 / 41. A chunk takes some 90 bytes a
 /// ray: 90 MB for a thread's chunk of 1M rays.
 const LARGE_TREE_CHUNK: usize = 1 << 20;
-
-/// Rays sampled by [`coherent`].
-const COHERENCE_SAMPLE: usize = 1024;
-
-/// True if a quarter of a sample of `rays` (evenly spaced) point into one direction octant:
-/// a camera's rays, which `batch::group` keeps in octant groups. They share nodes well
-/// enough in chunks of [`stream::CHUNK`], and a longer chunk costs them more in records out of
-/// the caches than it saves (terrain, `bvh8`, 1M camera rays in one call, one thread, best of
-/// 4 x 3 passes: 62.9 ms in chunks of 65,536, 72.0 in chunks of 1M). Incoherent rays spread
-/// over the octants, an eighth in each (with 1,024 rays sampled, a quarter is twelve standard
-/// deviations above an eighth). Invalid rays (zero or NaN directions, which miss) are not
-/// counted.
-fn coherent(rays: &[Ray]) -> bool {
-    let step = rays.len().div_ceil(COHERENCE_SAMPLE).max(1);
-    let mut counts = [0usize; 8];
-    for dir in rays.iter().step_by(step).filter_map(flushed_if_valid) {
-        counts[octant(dir) as usize] += 1;
-    }
-    let sampled: usize = counts.iter().sum();
-    sampled > 0 && counts.iter().any(|&count| 4 * count >= sampled)
-}
 
 /// What [`interleaves`] looks at in a stream.
 #[derive(Clone, Copy, Debug)]
@@ -496,11 +479,12 @@ mod tests {
                 Ray::new(Vec3::new(0.0, 100.0, 0.0), Vec3::new(x, -50.0, z))
             })
             .collect();
-        assert!(coherent(&camera) && !coherent(&incoherent) && !coherent(&[]));
+        assert!(has_dense_octant(&camera) && !has_dense_octant(&incoherent));
+        assert!(!has_dense_octant(&[]));
         // Invalid rays (a zero direction's signs say octant 0) are not counted.
         let mut padded = incoherent.clone();
         padded.extend(std::iter::repeat_n(Ray::new(Vec3::ZERO, Vec3::ZERO), 5_000));
-        assert!(!coherent(&padded));
+        assert!(!has_dense_octant(&padded));
         assert_eq!(large.max_chunk(&camera), stream::CHUNK);
         let ids = (0..large.triangle_count() as u32).collect();
         let permuted = crate::permuted::Permuted::new(large, ids);

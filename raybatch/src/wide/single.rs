@@ -73,7 +73,7 @@ pub(crate) fn trace_from<N: NodeKind, K: TriangleTest, V: Visitor, const PREFETC
     stack.reset();
     let mut item = start;
     while let Some(next) = step::<N, K, V>(tree, (ray, wide_ray, id), item, tmax, stack, visitor) {
-        if let (true, Some(after)) = (PREFETCH, stack.peek()) {
+        if PREFETCH && let Some(after) = stack.peek() {
             tree.prefetch_item(after.word);
         }
         item = next;
