@@ -38,7 +38,7 @@ usage: peers [--mesh FILE.obj | --scene NAME] [--rays N] [--sets A,B,..] [--seed
   --seed S         ray seed (default 1)
   --runs R         timed passes per build and per query, best kept (default 3)
   --race R         instead of the full table, the rows issue 7's targets name (Embree's one-ray
-                   calls, raybatch bvh4 / bvh8 per ray, batched and in calls of 4096),
+                   calls, raybatch bvh4 / bvh8 / bvh8q per ray, batched and in calls of 4096),
                    built once per ray set and timed in turn for R rounds (R at least the
                    rows' count lets each go first once), best pass kept: ratios that hold on
                    a machine whose speed drifts; --runs is not used";

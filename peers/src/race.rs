@@ -1,5 +1,6 @@
 //! The race: the rows issue 7's targets name (Embree's one-ray calls, raybatch per ray,
-//! batched and in calls of 4,096), built once per ray set and timed pass by pass in turn,
+//! batched and in calls of 4,096, for the 4-wide, 8-wide and quantized 8-wide trees), built
+//! once per ray set and timed pass by pass in turn,
 //! round `r` starting with contender `r` (so `R` at least the number of rows lets each go
 //! first once), best pass kept. Each pass writes one answer per ray (hit or not, occluded or
 //! not) into a buffer made before the timing; the rows are checked against the first on those
@@ -54,6 +55,7 @@ pub fn race(
     };
     let bvh4 = (AccelKind::Bvh4, build(AccelKind::Bvh4)?);
     let bvh8 = (AccelKind::Bvh8, build(AccelKind::Bvh8)?);
+    let bvh8q = (AccelKind::Bvh8q, build(AccelKind::Bvh8q)?);
     let scene = rtc::Scene::triangles(
         device,
         mesh.vertices(),
@@ -77,10 +79,10 @@ pub fn race(
             }
         }),
     }];
-    for tree in [&bvh4, &bvh8] {
+    for tree in [&bvh4, &bvh8, &bvh8q] {
         closest.push(per_ray(tree, rays, |t, r| t.cast_ray(r).is_some()));
     }
-    for tree in [&bvh4, &bvh8] {
+    for tree in [&bvh4, &bvh8, &bvh8q] {
         closest.push(batched_closest(tree, rays, None, BatchOrdering::ByOctant));
         closest.push(batched_closest(
             tree,
@@ -107,10 +109,10 @@ pub fn race(
                 }
             }),
         }];
-        for tree in [&bvh4, &bvh8] {
+        for tree in [&bvh4, &bvh8, &bvh8q] {
             occluded.push(per_ray(tree, rays, |t, r| t.occluded(r)));
         }
-        for tree in [&bvh4, &bvh8] {
+        for tree in [&bvh4, &bvh8, &bvh8q] {
             occluded.push(batched_occluded(tree, rays, None));
             occluded.push(batched_occluded(tree, rays, Some(FRAME_CALL)));
         }

@@ -19,7 +19,7 @@ use crate::kdtree::KdTree;
 use crate::mesh::Mesh;
 use crate::permuted::Permuted;
 use crate::query::{BatchError, BatchQueries, RayQueries};
-use crate::wide::{QuantizedWideTree, WideTree, WideTree8};
+use crate::wide::{QuantizedWideTree, QuantizedWideTree8, WideTree, WideTree8};
 use crate::zbt::{HybridOptions, HybridTree, Rejected, ZbtError, ZbtOptions, ZeroByteTree};
 
 /// A kind of acceleration structure.
@@ -36,6 +36,9 @@ pub enum AccelKind {
     Bvh8,
     /// [`QuantizedWideTree`]: the 4-wide tree with 8-bit child boxes, one 64-byte line a node.
     Bvh4q,
+    /// [`QuantizedWideTree8`]: the 8-wide tree with 8-bit child boxes, two 64-byte lines a
+    /// node.
+    Bvh8q,
     /// [`ZeroByteTree`]: no memory beside the mesh, boxes recomputed, per-thread box cache.
     Zbt,
     /// [`ZeroByteTree`] with the box cache off: every box recomputed at every visit.
@@ -52,12 +55,13 @@ pub enum AccelKind {
 
 impl AccelKind {
     /// Every kind.
-    pub const ALL: [AccelKind; 11] = [
+    pub const ALL: [AccelKind; 12] = [
         AccelKind::Aabb,
         AccelKind::Quantized,
         AccelKind::Bvh4,
         AccelKind::Bvh8,
         AccelKind::Bvh4q,
+        AccelKind::Bvh8q,
         AccelKind::Zbt,
         AccelKind::ZbtNoCache,
         AccelKind::Hybrid,
@@ -83,6 +87,7 @@ impl AccelKind {
             AccelKind::Bvh4 => "bvh4",
             AccelKind::Bvh8 => "bvh8",
             AccelKind::Bvh4q => "bvh4q",
+            AccelKind::Bvh8q => "bvh8q",
             AccelKind::Zbt => "zbt",
             AccelKind::ZbtNoCache => "zbt-nocache",
             AccelKind::Hybrid => "hybrid",
@@ -100,6 +105,7 @@ impl AccelKind {
             AccelKind::Bvh4 => "4-wide tree collapsed from the SAH tree, SIMD box tests",
             AccelKind::Bvh8 => "8-wide tree collapsed from the SAH tree, SIMD box tests",
             AccelKind::Bvh4q => "4-wide tree with 8-bit child boxes, 64-byte nodes",
+            AccelKind::Bvh8q => "8-wide tree with 8-bit child boxes, 128-byte nodes",
             AccelKind::Zbt => "zero-byte tree: no memory beside the mesh, box cache",
             AccelKind::ZbtNoCache => "zero-byte tree without the box cache",
             AccelKind::Hybrid => "AABB tree over zero-byte trees of 32-triangle chunks",
@@ -122,6 +128,7 @@ impl AccelKind {
             AccelKind::Bvh4
             | AccelKind::Bvh8
             | AccelKind::Bvh4q
+            | AccelKind::Bvh8q
             | AccelKind::Grid
             | AccelKind::Kd
             | AccelKind::Hash => false,
@@ -131,7 +138,10 @@ impl AccelKind {
     /// Whether the structure is a wide tree, whose leaves follow
     /// [`BuildOptions::wide_leaf_size`].
     pub fn is_wide(self) -> bool {
-        matches!(self, AccelKind::Bvh4 | AccelKind::Bvh8 | AccelKind::Bvh4q)
+        matches!(
+            self,
+            AccelKind::Bvh4 | AccelKind::Bvh8 | AccelKind::Bvh4q | AccelKind::Bvh8q
+        )
     }
 
     /// The kind called `name` (see [`AccelKind::name`]).
@@ -155,6 +165,7 @@ impl AccelKind {
             AccelKind::Bvh4 => AnyAccel::new(WideTree::build(mesh, options)?),
             AccelKind::Bvh8 => AnyAccel::new(WideTree8::build(mesh, options)?),
             AccelKind::Bvh4q => AnyAccel::new(QuantizedWideTree::build(mesh, options)?),
+            AccelKind::Bvh8q => AnyAccel::new(QuantizedWideTree8::build(mesh, options)?),
             AccelKind::Zbt | AccelKind::ZbtNoCache => {
                 let zbt = ZbtOptions {
                     box_cache: self == AccelKind::Zbt,

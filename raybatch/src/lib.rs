@@ -77,6 +77,6 @@ pub use kdtree::KdTree;
 pub use mesh::{Mesh, MeshError};
 pub use query::{BatchError, BatchQueries, RayQueries};
 pub use scene::{InstanceDesc, MeshTree, Rigid, Scene, SceneError, SceneHit};
-pub use wide::{QuantizedWideTree, WideTree, WideTree8};
+pub use wide::{QuantizedWideTree, QuantizedWideTree8, WideTree, WideTree8};
 pub use workspace::{StructureId, Workspace};
 pub use zbt::{HybridTree, ZeroByteTree};

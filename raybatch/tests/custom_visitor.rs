@@ -14,7 +14,8 @@ use raybatch::query::single::trace_one;
 use raybatch::zbt::ZbtOptions;
 use raybatch::{
     AabbTree, Accel, AccelKind, BuildOptions, Hit, HybridTree, Kernel, Mesh, QuantizedAabbTree,
-    QuantizedWideTree, Ray, RayQueries, Visitor, WideTree, WideTree8, ZeroByteTree,
+    QuantizedWideTree, QuantizedWideTree8, Ray, RayQueries, Visitor, WideTree, WideTree8,
+    ZeroByteTree,
 };
 use raybatch::{GridOptions, KdTree, SpatialHash, UniformGrid};
 
@@ -115,6 +116,11 @@ fn first_n_hits_visitor_on_every_structure() {
             AccelKind::Bvh4q => check(
                 name,
                 &QuantizedWideTree::build(mesh.clone(), &options).unwrap(),
+                &rays,
+            ),
+            AccelKind::Bvh8q => check(
+                name,
+                &QuantizedWideTree8::build(mesh.clone(), &options).unwrap(),
                 &rays,
             ),
             AccelKind::Zbt | AccelKind::ZbtNoCache => {

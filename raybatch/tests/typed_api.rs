@@ -17,7 +17,7 @@ use raybatch::zbt::{HybridOptions, ZbtOptions};
 use raybatch::{
     AabbTree, Accel, AccelKind, AnyAccel, BatchOptions, BatchOrdering, BatchQueries, BuildOptions,
     ChildOrdering, Footprint, Hit, HybridTree, Kernel, Mesh, QuantizedAabbTree, QuantizedWideTree,
-    Ray, RayQueries, WideTree, WideTree8, ZeroByteTree,
+    QuantizedWideTree8, Ray, RayQueries, WideTree, WideTree8, ZeroByteTree,
 };
 use raybatch::{GridOptions, KdTree, SpatialHash, UniformGrid};
 
@@ -187,6 +187,10 @@ fn typed_queries_match_any_accel() {
                     }
                     AccelKind::Bvh4q => {
                         let typed = QuantizedWideTree::build(mesh, &options).unwrap();
+                        compare_typed(&name, &typed, &any, &rays)
+                    }
+                    AccelKind::Bvh8q => {
+                        let typed = QuantizedWideTree8::build(mesh, &options).unwrap();
                         compare_typed(&name, &typed, &any, &rays)
                     }
                     AccelKind::Zbt | AccelKind::ZbtNoCache => {

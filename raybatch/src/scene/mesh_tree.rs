@@ -20,7 +20,7 @@ use crate::kdtree::KdTree;
 use crate::mesh::Mesh;
 use crate::permuted::Permuted;
 use crate::scene::error::SceneError;
-use crate::wide::{QuantizedWideTree, WideTree, WideTree8};
+use crate::wide::{QuantizedWideTree, QuantizedWideTree8, WideTree, WideTree8};
 use crate::zbt::{HybridOptions, HybridTree, ZbtOptions, ZeroByteTree};
 
 /// A structure a scene can place as instances: an [`Accel`] over one mesh that knows the
@@ -46,6 +46,7 @@ enum Tree {
     Wide(WideTree),
     Wide8(WideTree8),
     Wide4q(QuantizedWideTree),
+    Wide8q(QuantizedWideTree8),
     Zbt(Permuted<ZeroByteTree>),
     Hybrid(Permuted<HybridTree>),
     Grid(UniformGrid),
@@ -86,6 +87,7 @@ impl MeshTree {
             AccelKind::Bvh4 => Tree::Wide(WideTree::build(mesh, options)?),
             AccelKind::Bvh8 => Tree::Wide8(WideTree8::build(mesh, options)?),
             AccelKind::Bvh4q => Tree::Wide4q(QuantizedWideTree::build(mesh, options)?),
+            AccelKind::Bvh8q => Tree::Wide8q(QuantizedWideTree8::build(mesh, options)?),
             AccelKind::Zbt | AccelKind::ZbtNoCache => {
                 let zbt = ZbtOptions {
                     box_cache: kind == AccelKind::Zbt,
@@ -178,6 +180,10 @@ macro_rules! with_tree {
                 let $s = &mut $scratch.wide;
                 $body
             }
+            Tree::Wide8q($t) => {
+                let $s = &mut $scratch.wide;
+                $body
+            }
             Tree::Zbt($t) => {
                 let $s = &mut $scratch.zbt;
                 $body
@@ -256,6 +262,7 @@ impl MeshTree {
             Tree::Wide(t) => t,
             Tree::Wide8(t) => t,
             Tree::Wide4q(t) => t,
+            Tree::Wide8q(t) => t,
             Tree::Zbt(t) => t,
             Tree::Hybrid(t) => t,
             Tree::Grid(t) => t,

@@ -1,12 +1,12 @@
 //! What the wide walks need of a node, so that one tree type, one collapse, one one-ray loop,
 //! one stream engine and one side-by-side engine serve nodes of four children ([`WideNode`]),
-//! of eight ([`WideNode8`], the default tree) and of four in a quantized
-//! 64-byte node ([`QuantizedWideNode`]).
+//! of eight ([`WideNode8`], the default tree), of four in a quantized 64-byte node
+//! ([`QuantizedWideNode`]) and of eight in a quantized 128-byte node ([`QuantizedWideNode8`]).
 //!
 //! Eight children take about a third fewer node visits per walk (12.8 -> 8.8 per incoherent
 //! fandisk ray; each a dependent load: the one-ray loop is bound by their latency, not by its
 //! instruction count), for a wider box test and push. Each layout implements the trait beside
-//! its node, in `node.rs`, `node8.rs` and `node4q.rs`; all of them order their children per
+//! its node, in `node.rs`, `node8.rs`, `node4q.rs` and `node8q.rs`; all of them order their children per
 //! octant with [`octant_orders`].
 
 use std::fmt::Debug;
@@ -16,19 +16,22 @@ use glam::Vec3;
 use super::node::{WideNode, WideRay};
 use super::node4q::QuantizedWideNode;
 use super::node8::WideNode8;
+use super::node8q::QuantizedWideNode8;
 use super::stack::Stack;
 use super::stream::StreamPlanes;
 use crate::bvh::LeafCopy;
 use crate::bvh::ordering::octant_diagonal;
 use crate::geom::Aabb;
 
-/// A wide node layout: [`WideNode`], [`WideNode8`] or [`QuantizedWideNode`] (sealed: what the walks need of a node
-/// is the crate's own, in the private `layout::Layout`).
+/// A wide node layout: [`WideNode`], [`WideNode8`], [`QuantizedWideNode`] or
+/// [`QuantizedWideNode8`] (sealed: what the walks need of a node is the crate's own, in the
+/// private `layout::Layout`).
 pub trait NodeKind: layout::Layout + Clone + Copy + Debug + Send + Sync + 'static {}
 
 impl NodeKind for WideNode {}
 impl NodeKind for WideNode8 {}
 impl NodeKind for QuantizedWideNode {}
+impl NodeKind for QuantizedWideNode8 {}
 
 // The walk's types are the crate's own; the trait cannot be named outside the crate (its module
 // is private), so nothing outside can call these methods.
@@ -46,6 +49,9 @@ pub(crate) mod layout {
         const FORMAT: &'static str;
         /// What the tree copies of its leaves by default ([`crate::LeafCopy::Auto`]).
         const LEAF_COPY: LeafCopy;
+        /// What it copies by default on trees beyond the caches, where a leaf's chain of
+        /// dependent reads costs a trip to memory per link (`wide::default_leaf_copy`).
+        const LEAF_COPY_BEYOND_CACHES: LeafCopy = Self::LEAF_COPY;
 
         /// The node of `children` (at most `WIDTH` boxes and child words, in slots `0..`),
         /// with its per-octant child orders.

@@ -5,6 +5,8 @@
 //! - [`node`]: the 4-wide node layout and its 4-lane box test (identical, lane by lane, to the
 //!   scalar slab test).
 //! - [`node8`]: the 8-wide node layout and its 8-lane box test.
+//! - [`node4q`], [`node8q`]: the 4- and 8-wide nodes with 8-bit child boxes on a per-node
+//!   grid (`quantize`), decoded before the same box tests.
 //! - `kind`: [`NodeKind`], what the walks need of a node layout, so that one tree type, one
 //!   collapse, one one-ray loop and one side-by-side engine serve both widths.
 //! - `collapse`: binary tree to wide tree.
@@ -29,6 +31,8 @@ pub(crate) mod kind;
 pub mod node;
 pub mod node4q;
 pub mod node8;
+pub mod node8q;
+pub(crate) mod quantize;
 #[cfg(target_arch = "x86_64")]
 #[allow(unsafe_code)]
 pub(crate) mod simd;
@@ -45,7 +49,8 @@ use glam::Vec3;
 use crate::accel::{Accel, Footprint, RayStream};
 use crate::batch::Interleave;
 use crate::batch::group::has_dense_octant;
-use crate::bvh::build::{BuildError, BuildOptions, build};
+use crate::bvh::LeafCopy;
+use crate::bvh::build::{BuildError, BuildOptions, BuiltTree, build};
 use crate::bvh::leaves::LeafTriangles;
 use crate::bvh::nodes::leaf_word;
 use crate::geom::{Aabb, PreparedRay, Ray, TriangleTest};
@@ -55,6 +60,7 @@ pub use kind::NodeKind;
 use node::WideNode;
 use node4q::QuantizedWideNode;
 use node8::WideNode8;
+use node8q::QuantizedWideNode8;
 use stack::Stack;
 
 /// A wide BVH over a mesh (see the module docs), of nodes `N`: [`WideTree`] (4 children per
@@ -82,6 +88,10 @@ pub type WideTree = WideBvh<WideNode>;
 /// outwards): one 64-byte cache line per node instead of two, the same answers.
 pub type QuantizedWideTree = WideBvh<QuantizedWideNode>;
 
+/// The 8-wide tree with its child boxes quantized to 8 bits a plane on a per-node grid (rounded
+/// outwards): two 64-byte cache lines per node instead of four, the same answers.
+pub type QuantizedWideTree8 = WideBvh<QuantizedWideNode8>;
+
 /// The 8-wide tree, the crate's default structure: about a third fewer node visits than the
 /// 4-wide one per ray; its batches use the same stream engine as the 4-wide tree's (nodes
 /// shared; side by side for short incoherent streams on large trees), at 0.87-1.04x its
@@ -98,7 +108,9 @@ impl<N: NodeKind> WideBvh<N> {
         let root_bounds = built.nodes.first().map_or(Aabb::EMPTY, |n| n.bounds);
         let (nodes, root) =
             collapse::collapse(&built, options.wide_leaf_size).unwrap_or((Vec::new(), 0));
-        let copy = options.leaf_copy.or(N::LEAF_COPY);
+        let copy = options
+            .leaf_copy
+            .or(default_leaf_copy::<N>(&nodes, &built, &mesh));
         let mut tree = Self {
             nodes,
             root,
@@ -159,6 +171,20 @@ impl<N: NodeKind> WideBvh<N> {
     #[inline(always)]
     fn prefetch_node(&self, index: u32) {
         self.nodes[index as usize].prefetch();
+    }
+}
+
+/// What a tree of `nodes` over `mesh` copies of its leaves by default: the layout's
+/// [`NodeKind`] choice for trees beyond the caches if the tree would be beyond them even
+/// without a copy (nodes, slot order and mesh above [`INTERLEAVE_ABOVE_BYTES`]), else its
+/// choice for the others.
+fn default_leaf_copy<N: NodeKind>(nodes: &[N], built: &BuiltTree, mesh: &Mesh) -> LeafCopy {
+    let without_copy =
+        size_of_val(nodes) + size_of_val(built.triangle_order.as_slice()) + mesh.heap_bytes();
+    if without_copy > INTERLEAVE_ABOVE_BYTES {
+        N::LEAF_COPY_BEYOND_CACHES
+    } else {
+        N::LEAF_COPY
     }
 }
 
@@ -489,6 +515,46 @@ mod tests {
         let ids = (0..large.triangle_count() as u32).collect();
         let permuted = crate::permuted::Permuted::new(large, ids);
         assert_eq!(permuted.max_chunk(&incoherent), LARGE_TREE_CHUNK);
+    }
+
+    /// The quantized 8-wide tree copies its leaves' vertex indices by default only beyond the
+    /// caches (unless told otherwise), and answers there as the 8-wide tree does.
+    #[test]
+    fn quantized_trees_copy_indices_beyond_the_caches() {
+        let node_bytes = |tree: &QuantizedWideTree8| tree.nodes.len() * 128;
+        let small = QuantizedWideTree8::build(bunny(), &BuildOptions::default()).unwrap();
+        assert!(!small.beyond_caches);
+        assert_eq!(
+            small.heap_bytes(),
+            node_bytes(&small) + small.triangle_count() * 4
+        );
+        let mesh = Arc::new(large_grid_mesh());
+        let large = QuantizedWideTree8::build(mesh.clone(), &BuildOptions::default()).unwrap();
+        assert!(large.beyond_caches);
+        assert_eq!(
+            large.heap_bytes(),
+            node_bytes(&large) + large.triangle_count() * 12
+        );
+        let told = BuildOptions {
+            leaf_copy: LeafCopy::Nothing,
+            ..BuildOptions::default()
+        };
+        let plain = QuantizedWideTree8::build(mesh.clone(), &told).unwrap();
+        assert_eq!(
+            plain.heap_bytes(),
+            node_bytes(&plain) + plain.triangle_count() * 4
+        );
+        let full = WideTree8::build(mesh.clone(), &BuildOptions::default()).unwrap();
+        let rays = random_rays(&mesh, 3_000, 9);
+        let per_ray: Vec<Option<Hit>> = rays.iter().map(|r| full.cast_ray(r)).collect();
+        assert!(per_ray.iter().filter(|hit| hit.is_some()).count() > 100);
+        for tree in [&large, &plain] {
+            let answers: Vec<Option<Hit>> = rays.iter().map(|r| tree.cast_ray(r)).collect();
+            assert!(answers == per_ray);
+            let mut batched = vec![None; rays.len()];
+            tree.cast_rays(&rays, &mut batched).unwrap();
+            assert!(batched == per_ray);
+        }
     }
 
     /// A flat grid of some 600k triangles: a tree beyond [`INTERLEAVE_ABOVE_BYTES`].

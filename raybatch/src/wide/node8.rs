@@ -102,26 +102,37 @@ impl WideNode8 {
     /// [`WideNode8::hits`] as two 4-wide box tests: the portable twin of the AVX2 version.
     #[inline(always)]
     pub(crate) fn hits_by_halves(&self, ray: &WideRay, tmax: f32) -> (u32, [f32; WIDTH]) {
-        let mut mask = 0;
-        let mut entries = [0.0; WIDTH];
-        for half in 0..2 {
-            let (mut near, mut far) = ([Vec4::ZERO; 3], [Vec4::ZERO; 3]);
-            for axis in 0..3 {
-                let negative = (ray.octant >> axis) & 1 != 0;
-                let (near_row, far_row) = if negative {
-                    (axis + 3, axis)
-                } else {
-                    (axis, axis + 3)
-                };
-                near[axis] = Vec4::from_slice(&self.bounds[near_row][4 * half..]);
-                far[axis] = Vec4::from_slice(&self.bounds[far_row][4 * half..]);
-            }
-            let (m, e) = ray.hits_planes(&Planes { near, far }, tmax);
-            mask |= m << (4 * half);
-            e.write_to_slice(&mut entries[4 * half..]);
-        }
-        (mask, entries)
+        slabs_by_halves(&self.bounds, ray, tmax)
     }
+}
+
+/// The 8-wide box test on `bounds` (rows as [`WideNode8`] holds them) as two 4-wide box
+/// tests: the portable twin of the AVX2 tests (`simd::slabs8`, `simd::slabs8q`).
+#[inline(always)]
+pub(crate) fn slabs_by_halves(
+    bounds: &[[f32; WIDTH]; 6],
+    ray: &WideRay,
+    tmax: f32,
+) -> (u32, [f32; WIDTH]) {
+    let mut mask = 0;
+    let mut entries = [0.0; WIDTH];
+    for half in 0..2 {
+        let (mut near, mut far) = ([Vec4::ZERO; 3], [Vec4::ZERO; 3]);
+        for axis in 0..3 {
+            let negative = (ray.octant >> axis) & 1 != 0;
+            let (near_row, far_row) = if negative {
+                (axis + 3, axis)
+            } else {
+                (axis, axis + 3)
+            };
+            near[axis] = Vec4::from_slice(&bounds[near_row][4 * half..]);
+            far[axis] = Vec4::from_slice(&bounds[far_row][4 * half..]);
+        }
+        let (m, e) = ray.hits_planes(&Planes { near, far }, tmax);
+        mask |= m << (4 * half);
+        e.write_to_slice(&mut entries[4 * half..]);
+    }
+    (mask, entries)
 }
 
 #[allow(private_interfaces)]
@@ -155,11 +166,7 @@ impl Layout for WideNode8 {
     }
 
     fn stream_planes(&self, octant: u32) -> StreamPlanes {
-        let negative = |axis: usize| ((octant >> axis) & 1) as usize;
-        StreamPlanes {
-            near: std::array::from_fn(|axis| self.bounds[axis + 3 * negative(axis)]),
-            far: std::array::from_fn(|axis| self.bounds[axis + 3 * (1 - negative(axis))]),
-        }
+        StreamPlanes::from_rows(&self.bounds, octant)
     }
 
     #[inline(always)]

@@ -5,6 +5,8 @@
 //!   [`super::node::WideRay::slabs_portable`] (compared by `node::tests`);
 //! - [`slabs8`]: one ray against an 8-wide node's eight boxes with AVX2, twin of
 //!   [`WideNode8::hits_by_halves`] (compared by `node8::tests`);
+//! - [`slabs8q`]: the same against a quantized 8-wide node, decoding its planes first, twin of
+//!   [`QuantizedWideNode8::hits_portable`] (compared by `quantize::tests`);
 //! - [`stream_masks`]: eight rays at a time (of one octant, or of mixed octants) against each
 //!   box with AVX2, for the stream split, twin of its one-ray loop (compared by
 //!   `stream::tests`).
@@ -21,17 +23,19 @@
 //! the exit scale for the far plane, no FMA.
 
 use std::arch::x86_64::{
-    __m128, __m128i, __m256i, _CMP_LE_OQ, _mm_cmple_ps, _mm_loadl_epi64, _mm_max_ps, _mm_min_ps,
-    _mm_movemask_ps, _mm_mul_ps, _mm_set1_ps, _mm_sub_ps, _mm256_blendv_ps, _mm256_cmp_ps,
-    _mm256_cvtepu8_epi32, _mm256_load_ps, _mm256_loadu_si256, _mm256_max_ps, _mm256_min_ps,
-    _mm256_movemask_ps, _mm256_mul_ps, _mm256_permutevar8x32_epi32, _mm256_set1_ps,
-    _mm256_storeu_ps, _mm256_storeu_si256, _mm256_sub_ps,
+    __m128, __m128i, __m256, __m256i, _CMP_LE_OQ, _mm_cmple_ps, _mm_loadl_epi64, _mm_max_ps,
+    _mm_min_ps, _mm_movemask_ps, _mm_mul_ps, _mm_set1_ps, _mm_sub_ps, _mm256_add_ps,
+    _mm256_blendv_ps, _mm256_cmp_ps, _mm256_cvtepi32_ps, _mm256_cvtepu8_epi32, _mm256_load_ps,
+    _mm256_loadu_si256, _mm256_max_ps, _mm256_min_ps, _mm256_movemask_ps, _mm256_mul_ps,
+    _mm256_permutevar8x32_epi32, _mm256_set1_ps, _mm256_storeu_ps, _mm256_storeu_si256,
+    _mm256_sub_ps,
 };
 
 use glam::Vec4;
 
 use super::node::{Planes, WideRay};
 use super::node8::WideNode8;
+use super::node8q::QuantizedWideNode8;
 use super::stream::StreamPlanes;
 use crate::geom::PreparedRay;
 use crate::geom::aabb::EXIT_SCALE;
@@ -80,7 +84,57 @@ pub(crate) fn slabs8(_: Avx2, ray: &WideRay, node: &WideNode8, tmax: f32) -> (u3
 unsafe fn slabs8_avx2(ray: &WideRay, node: &WideNode8, tmax: f32) -> (u32, [f32; 8]) {
     // Each row of `bounds` is 32 bytes at a multiple of 32 from the node's 64-byte alignment.
     // SAFETY: the row is eight initialised `f32`s, aligned to 32 bytes.
-    let row = |row: usize| unsafe { _mm256_load_ps(node.bounds[row].as_ptr()) };
+    let rows = std::array::from_fn(|row| unsafe { _mm256_load_ps(node.bounds[row].as_ptr()) });
+    slab_rows8(ray, &rows, tmax)
+}
+
+/// One ray against a quantized 8-wide node's eight boxes with AVX2, twin of
+/// [`QuantizedWideNode8::hits_portable`] (compared by `quantize::tests`): each row's eight steps
+/// widened to `f32`, times the axis step (exact: fewer than 256 steps of a power of two), plus
+/// the origin, the decode's own arithmetic (`quantize::plane`); then [`slabs8`]'s test on them.
+/// All eight lanes, used or not (the caller masks).
+#[inline(always)]
+pub(crate) fn slabs8q(
+    _: Avx2,
+    ray: &WideRay,
+    node: &QuantizedWideNode8,
+    tmax: f32,
+) -> (u32, [f32; 8]) {
+    // SAFETY: an `Avx2` exists only if the CPU has AVX2.
+    unsafe { slabs8q_avx2(ray, node, tmax) }
+}
+
+/// See [`slabs8q`].
+///
+/// # Safety
+/// The CPU must support AVX2.
+#[inline]
+#[target_feature(enable = "avx2")]
+unsafe fn slabs8q_avx2(ray: &WideRay, node: &QuantizedWideNode8, tmax: f32) -> (u32, [f32; 8]) {
+    let (origin, steps) = node.origin_and_steps();
+    let decode = |bytes: &[u8; 8], axis: usize| {
+        // SAFETY: `bytes` is eight readable bytes; the load has no alignment requirement.
+        let packed = unsafe { _mm_loadl_epi64(bytes.as_ptr().cast::<__m128i>()) };
+        let lanes = _mm256_cvtepi32_ps(_mm256_cvtepu8_epi32(packed));
+        let offsets = _mm256_mul_ps(lanes, _mm256_set1_ps(steps[axis]));
+        _mm256_add_ps(_mm256_set1_ps(origin[axis]), offsets)
+    };
+    let rows = [
+        decode(&node.low[0], 0),
+        decode(&node.low[1], 1),
+        decode(&node.low[2], 2),
+        decode(&node.high[0], 0),
+        decode(&node.high[1], 1),
+        decode(&node.high[2], 2),
+    ];
+    slab_rows8(ray, &rows, tmax)
+}
+
+/// The 8-lane slab test on six rows of planes (min x, y, z, max x, y, z), for [`slabs8`] and
+/// [`slabs8q`].
+#[inline]
+#[target_feature(enable = "avx2")]
+fn slab_rows8(ray: &WideRay, rows: &[__m256; 6], tmax: f32) -> (u32, [f32; 8]) {
     let mut near = _mm256_set1_ps(ray.tmin.x);
     let mut far = _mm256_set1_ps(tmax.min(f32::MAX));
     let scale = _mm256_set1_ps(EXIT_SCALE);
@@ -88,8 +142,8 @@ unsafe fn slabs8_avx2(ray: &WideRay, node: &WideNode8, tmax: f32) -> (u32, [f32;
         let o = _mm256_set1_ps(ray.origin[axis].x);
         let inv = _mm256_set1_ps(ray.inv_dir[axis].x);
         let negative = ((ray.octant >> axis) & 1) as usize;
-        let near_plane = row(axis + 3 * negative);
-        let far_plane = row(axis + 3 * (1 - negative));
+        let near_plane = rows[axis + 3 * negative];
+        let far_plane = rows[axis + 3 * (1 - negative)];
         let enter = _mm256_mul_ps(_mm256_sub_ps(near_plane, o), inv);
         let exit = _mm256_mul_ps(_mm256_mul_ps(_mm256_sub_ps(far_plane, o), inv), scale);
         near = _mm256_max_ps(enter, near);

@@ -89,6 +89,16 @@ pub(crate) struct StreamPlanes {
 }
 
 impl StreamPlanes {
+    /// The planes of an 8-wide node's rows (min x, y, z, max x, y, z; see
+    /// [`super::node8::WideNode8`]) as rays of direction octant `octant` meet them.
+    pub(crate) fn from_rows(rows: &[[f32; MAX_WIDTH]; 6], octant: u32) -> Self {
+        let negative = |axis: usize| ((octant >> axis) & 1) as usize;
+        StreamPlanes {
+            near: std::array::from_fn(|axis| rows[axis + 3 * negative(axis)]),
+            far: std::array::from_fn(|axis| rows[axis + 3 * (1 - negative(axis))]),
+        }
+    }
+
     /// The planes of a 4-wide node ([`super::node::Planes`]), in lanes 0 to 3.
     pub(crate) fn from_four(planes: &super::node::Planes) -> Self {
         let lanes = |row: glam::Vec4| {
@@ -594,6 +604,7 @@ mod tests {
     use super::super::node::WideNode;
     use super::super::node4q::QuantizedWideNode;
     use super::super::node8::WideNode8;
+    use super::super::node8q::QuantizedWideNode8;
     use super::super::simd::{self, Avx2};
     use super::*;
     use crate::geom::{Aabb, Ray};
@@ -682,6 +693,7 @@ mod tests {
         eight_at_a_time_equals_one_at_a_time_for::<WideNode>(avx2);
         eight_at_a_time_equals_one_at_a_time_for::<WideNode8>(avx2);
         eight_at_a_time_equals_one_at_a_time_for::<QuantizedWideNode>(avx2);
+        eight_at_a_time_equals_one_at_a_time_for::<QuantizedWideNode8>(avx2);
     }
 
     fn eight_at_a_time_equals_one_at_a_time_for<N: NodeKind>(avx2: Avx2) {
