@@ -12,7 +12,7 @@
 //! ```
 //!
 //! The grid and why a decoded box always holds its child's box (so the answers are those of
-//! the full-precision tree) are in [`super::quantize`].
+//! the full-precision tree) are in `wide::quantize`.
 //!
 //! The box test decodes the six planes and runs the 4-wide node's slab test on them
 //! (`WideRay::hits_planes`), lane by lane the scalar slab test on the decoded box; the

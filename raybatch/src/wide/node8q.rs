@@ -1,5 +1,5 @@
 //! The quantized 8-wide node: the 8-wide node's children in two 64-byte cache lines instead
-//! of four, their boxes stored as 8-bit steps on a per-node grid ([`super::quantize`], shared with
+//! of four, their boxes stored as 8-bit steps on a per-node grid (`wide::quantize`, shared with
 //! the quantized 4-wide node).
 //!
 //! ```text
