@@ -76,7 +76,11 @@ impl AccelKind {
     /// rays 0.97-1.15x, whole batches of closest hits 0.95-1.04x; but batched any hit
     /// 0.88-0.98x and batched camera rays 0.87-0.92x (more box tests per ray in a stream).
     /// Memory 28.4-35.6 B/tri against 26.6-28.4. The quantized 4-wide tree takes 11.3-12.2
-    /// B/tri for about 0.8x the 4-wide tree's speed per ray and 0.9x batched.
+    /// B/tri for about 0.8x the 4-wide tree's speed per ray and 0.9x batched. The quantized
+    /// 8-wide tree ([`AccelKind::Bvh8q`]) is 0.81-0.90x this one per ray on meshes that stay
+    /// in the caches, but 1.1-1.3x on 1M-triangle meshes (four races of five; 0.96-0.99x
+    /// batched), at 12.2-15.8 B/tri (20.0-20.8 beyond the caches, where it copies its leaves'
+    /// vertex indices).
     pub const DEFAULT: AccelKind = AccelKind::Bvh8;
 
     /// The name used on the command line and in tables.
