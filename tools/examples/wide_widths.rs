@@ -1,4 +1,4 @@
-//! The wide trees (4-wide, 8-wide, quantized 4-wide), per ray and batched (all rays in one
+//! The wide trees (4-wide, 8-wide, quantized 4-wide, quantized 8-wide), per ray and batched (all rays in one
 //! call, one thread), alternated within one process, best of `ROUNDS` each: closest hit on
 //! incoherent rays and any hit on line-of-sight segments. Every variant's answers are checked
 //! equal to the 4-wide tree's per-ray answers. Ratios of runs made side by side hold on a
@@ -10,10 +10,13 @@
 use std::time::Instant;
 
 use raybatch::{
-    BatchOptions, BatchQueries, BuildOptions, Footprint, Hit, QuantizedWideTree, Ray, RayQueries,
-    WideTree, WideTree8,
+    BatchOptions, BatchQueries, BuildOptions, Footprint, Hit, QuantizedWideTree,
+    QuantizedWideTree8, Ray, RayQueries, WideTree, WideTree8,
 };
 use raybatch_tools::scenes::{self, RaySet};
+
+/// The trees compared.
+const TREES: usize = 4;
 
 /// A tree's closest-hit and any-hit answers, per ray or batched (object-safe, so the trees
 /// can sit in one array).
@@ -77,10 +80,11 @@ fn main() {
     pool.install(|| {
         let options = BuildOptions::default();
         let mesh = &scene.mesh;
-        let trees: [Box<dyn Answers>; 3] = [
+        let trees: [Box<dyn Answers>; TREES] = [
             Box::new(WideTree::build(mesh.clone(), &options).unwrap()),
             Box::new(WideTree8::build(mesh.clone(), &options).unwrap()),
             Box::new(QuantizedWideTree::build(mesh.clone(), &options).unwrap()),
+            Box::new(QuantizedWideTree8::build(mesh.clone(), &options).unwrap()),
         ];
         for tree in &trees {
             let per_triangle = tree.bytes() as f64 / mesh.triangle_count() as f64;
@@ -100,8 +104,8 @@ fn main() {
 
 /// Runs every variant (tree `v / 2`, batched if `v` is odd) `rounds` times in turn; returns
 /// each one's best time in ms. Panics if a variant's answers differ from the first's.
-fn race<T: PartialEq>(rounds: usize, mut run: impl FnMut(usize) -> T) -> [f64; 6] {
-    let mut best = [f64::INFINITY; 6];
+fn race<T: PartialEq>(rounds: usize, mut run: impl FnMut(usize) -> T) -> [f64; 2 * TREES] {
+    let mut best = [f64::INFINITY; 2 * TREES];
     let mut reference = None;
     for _ in 0..rounds {
         for (v, best) in best.iter_mut().enumerate() {
@@ -120,10 +124,10 @@ fn race<T: PartialEq>(rounds: usize, mut run: impl FnMut(usize) -> T) -> [f64; 6
 /// One line per variant: best time and speed relative to the 4-wide tree's per-ray and
 /// batched times.
 fn report(
-    trees: &[Box<dyn Answers>; 3],
+    trees: &[Box<dyn Answers>; TREES],
     (scene, query): (&str, &str),
     (count, rounds): (usize, usize),
-    times: &[f64; 6],
+    times: &[f64; 2 * TREES],
 ) {
     println!("{scene}, {query}, {count} rays, one thread, best of {rounds}:");
     for (v, ms) in times.iter().enumerate() {
