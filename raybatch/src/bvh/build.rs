@@ -46,12 +46,13 @@ pub struct BuildOptions {
     pub parallel: bool,
     /// What the tree copies of its leaves' triangles in leaf order beside the mesh
     /// ([`LeafCopy::Auto`] by default: the vertex indices for [`crate::WideTree`] and
-    /// [`crate::WideTree8`], nothing for the others), so that reading a leaf's triangles takes
+    /// [`crate::WideTree8`], and for [`crate::QuantizedWideTree8`] beyond the caches; nothing
+    /// for the others), so that reading a leaf's triangles takes
     /// fewer dependent loads, scattered less over the mesh. The zero-byte trees and the
     /// quantized-vertex tree copy nothing whatever the choice (a copy would undo their saving),
     /// and the index copy needs meshes of at most 2^21 vertices (larger ones copy nothing).
     pub leaf_copy: LeafCopy,
-    /// The wide trees (`WideTree`, `WideTree8`, `QuantizedWideTree`) only: the most triangles a
+    /// The wide trees (`WideTree`, `WideTree8`, `QuantizedWideTree`, `QuantizedWideTree8`) only: the most triangles a
     /// leaf may hold when their collapse turns a small binary subtree into one leaf, which it
     /// does where the surface area heuristic with a wide node's cost says the leaf is cheaper
     /// (1 to [`MAX_LEAF_SIZE`], the default; at or below `max_leaf_size` nothing is merged, so

@@ -8,11 +8,11 @@
 //! - [`node4q`], [`node8q`]: the 4- and 8-wide nodes with 8-bit child boxes on a per-node
 //!   grid (`quantize`), decoded before the same box tests.
 //! - `kind`: [`NodeKind`], what the walks need of a node layout, so that one tree type, one
-//!   collapse, one one-ray loop and one side-by-side engine serve both widths.
+//!   collapse, one one-ray loop and one side-by-side engine serve every layout.
 //! - `collapse`: binary tree to wide tree.
 //! - `dispatch`: the loops' baseline and AVX2 copies, picked at run time.
 //! - `simd`: the box tests with SSE (4 lanes) and AVX2 (8 lanes) on x86-64 (their portable
-//!   twins are in [`node`] and [`node8`]), and the stream split's AVX2 eight-ray box tests and
+//!   twins are in [`node`], [`node8`] and [`node8q`]), and the stream split's AVX2 eight-ray box tests and
 //!   list writes (twins in `stream`).
 //! - `single`: the one-ray loop, children in the node's precomputed order for the ray's octant.
 //! - `stack`: the one-ray loop's pending children, pushed without branches.
@@ -64,7 +64,8 @@ use node8q::QuantizedWideNode8;
 use stack::Stack;
 
 /// A wide BVH over a mesh (see the module docs), of nodes `N`: [`WideTree`] (4 children per
-/// node) or [`WideTree8`] (8).
+/// node), [`WideTree8`] (8), [`QuantizedWideTree`] (4, quantized) or [`QuantizedWideTree8`]
+/// (8, quantized).
 #[derive(Clone, Debug)]
 pub struct WideBvh<N: NodeKind> {
     nodes: Vec<N>,

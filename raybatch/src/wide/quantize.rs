@@ -10,7 +10,8 @@
 //! rule decides among hits, never the boxes). A decoded box is up to a 255th of the node's
 //! extent larger on each side, so a ray enters a few more of them.
 //!
-//! A SIMD decode may use a fused multiply-add: with an exact product it rounds the same sum.
+//! A SIMD decode must round as this one does: a multiply then an add (a fused multiply-add
+//! rounds the same sum while the product is exact, but not where it overflows, at exponent 254).
 
 use crate::geom::Aabb;
 

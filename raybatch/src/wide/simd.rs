@@ -84,8 +84,8 @@ pub(crate) fn slabs8(_: Avx2, ray: &WideRay, node: &WideNode8, tmax: f32) -> (u3
 unsafe fn slabs8_avx2(ray: &WideRay, node: &WideNode8, tmax: f32) -> (u32, [f32; 8]) {
     // Each row of `bounds` is 32 bytes at a multiple of 32 from the node's 64-byte alignment.
     // SAFETY: the row is eight initialised `f32`s, aligned to 32 bytes.
-    let rows = std::array::from_fn(|row| unsafe { _mm256_load_ps(node.bounds[row].as_ptr()) });
-    slab_rows8(ray, &rows, tmax)
+    let row = |row: usize| unsafe { _mm256_load_ps(node.bounds[row].as_ptr()) };
+    slab_rows8(ray, row, tmax)
 }
 
 /// One ray against a quantized 8-wide node's eight boxes with AVX2, twin of
@@ -112,29 +112,27 @@ pub(crate) fn slabs8q(
 #[target_feature(enable = "avx2")]
 unsafe fn slabs8q_avx2(ray: &WideRay, node: &QuantizedWideNode8, tmax: f32) -> (u32, [f32; 8]) {
     let (origin, steps) = node.origin_and_steps();
-    let decode = |bytes: &[u8; 8], axis: usize| {
+    // Row `row` of the decoded planes (min x, y, z, max x, y, z), decoded where it is asked for.
+    let row = |row: usize| {
+        let (bytes, axis) = if row < 3 {
+            (&node.low[row], row)
+        } else {
+            (&node.high[row - 3], row - 3)
+        };
         // SAFETY: `bytes` is eight readable bytes; the load has no alignment requirement.
         let packed = unsafe { _mm_loadl_epi64(bytes.as_ptr().cast::<__m128i>()) };
         let lanes = _mm256_cvtepi32_ps(_mm256_cvtepu8_epi32(packed));
         let offsets = _mm256_mul_ps(lanes, _mm256_set1_ps(steps[axis]));
         _mm256_add_ps(_mm256_set1_ps(origin[axis]), offsets)
     };
-    let rows = [
-        decode(&node.low[0], 0),
-        decode(&node.low[1], 1),
-        decode(&node.low[2], 2),
-        decode(&node.high[0], 0),
-        decode(&node.high[1], 1),
-        decode(&node.high[2], 2),
-    ];
-    slab_rows8(ray, &rows, tmax)
+    slab_rows8(ray, row, tmax)
 }
 
-/// The 8-lane slab test on six rows of planes (min x, y, z, max x, y, z), for [`slabs8`] and
-/// [`slabs8q`].
+/// The 8-lane slab test on the six rows of planes `row` gives (0 to 5: min x, y, z, max x, y,
+/// z), for [`slabs8`] (rows loaded straight from the node) and [`slabs8q`] (rows decoded).
 #[inline]
 #[target_feature(enable = "avx2")]
-fn slab_rows8(ray: &WideRay, rows: &[__m256; 6], tmax: f32) -> (u32, [f32; 8]) {
+fn slab_rows8(ray: &WideRay, row: impl Fn(usize) -> __m256, tmax: f32) -> (u32, [f32; 8]) {
     let mut near = _mm256_set1_ps(ray.tmin.x);
     let mut far = _mm256_set1_ps(tmax.min(f32::MAX));
     let scale = _mm256_set1_ps(EXIT_SCALE);
@@ -142,8 +140,8 @@ fn slab_rows8(ray: &WideRay, rows: &[__m256; 6], tmax: f32) -> (u32, [f32; 8]) {
         let o = _mm256_set1_ps(ray.origin[axis].x);
         let inv = _mm256_set1_ps(ray.inv_dir[axis].x);
         let negative = ((ray.octant >> axis) & 1) as usize;
-        let near_plane = rows[axis + 3 * negative];
-        let far_plane = rows[axis + 3 * (1 - negative)];
+        let near_plane = row(axis + 3 * negative);
+        let far_plane = row(axis + 3 * (1 - negative));
         let enter = _mm256_mul_ps(_mm256_sub_ps(near_plane, o), inv);
         let exit = _mm256_mul_ps(_mm256_mul_ps(_mm256_sub_ps(far_plane, o), inv), scale);
         near = _mm256_max_ps(enter, near);

@@ -118,7 +118,7 @@ pub struct QueryArgs {
     /// Largest leaf size.
     #[arg(long, value_name = "N", default_value = DEFAULT_LEAF, value_parser = leaf_size)]
     pub leaf: u32,
-    /// The wide trees (bvh4, bvh4q, bvh8): the largest leaf their collapse may merge small
+    /// The wide trees (bvh4, bvh4q, bvh8, bvh8q): the largest leaf their collapse may merge small
     /// subtrees into where the surface area heuristic says it pays (1: the binary tree's
     /// leaves, as before the fourteenth session).
     #[arg(long, value_name = "N", default_value_t = BuildOptions::default().wide_leaf_size, value_parser = leaf_size)]
