@@ -78,7 +78,7 @@ impl AccelKind {
     /// Memory 28.4-35.6 B/tri against 26.6-28.4. The quantized 4-wide tree takes 11.3-12.2
     /// B/tri for about 0.8x the 4-wide tree's speed per ray and 0.9x batched. The quantized
     /// 8-wide tree ([`AccelKind::Bvh8q`]) is 0.81-0.90x this one per ray on meshes that stay
-    /// in the caches, but 1.1-1.3x on 1M-triangle meshes (four races of five; 0.96-0.99x
+    /// in the caches, but 1.06-1.3x on 1M-triangle meshes (six races of seven; 0.96-0.99x
     /// batched), at 12.2-15.8 B/tri (20.0-20.8 beyond the caches, where it copies its leaves'
     /// vertex indices).
     pub const DEFAULT: AccelKind = AccelKind::Bvh8;
