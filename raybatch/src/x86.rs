@@ -18,6 +18,18 @@ impl Avx2 {
     pub(crate) fn detect() -> Option<Self> {
         std::arch::is_x86_feature_detected!("avx2").then_some(Self(()))
     }
+
+    /// For tests: [`Avx2::detect`], and without AVX2 a note on stderr saying what the test
+    /// does instead (`instead`), written directly so that the harness shows it on success.
+    #[cfg(test)]
+    pub(crate) fn detect_or_note(instead: &str) -> Option<Self> {
+        let found = Self::detect();
+        if found.is_none() {
+            let note = format!("note: this CPU lacks AVX2: {instead}\n");
+            let _ = std::io::Write::write_all(&mut std::io::stderr(), note.as_bytes());
+        }
+        found
+    }
 }
 
 /// Eight rows of eight values to eight columns: `out[c]` lane `r` is `rows[r]` lane `c`.

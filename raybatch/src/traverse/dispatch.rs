@@ -93,13 +93,9 @@ mod tests {
     #[test]
     fn dispatched_and_portable_traversals_agree() {
         #[cfg(target_arch = "x86_64")]
-        if !std::arch::is_x86_feature_detected!("avx2") {
-            // Written to stderr directly so the test harness shows it even on success.
-            let _ = std::io::Write::write_all(
-                &mut std::io::stderr(),
-                b"note: this CPU lacks AVX2: the dispatched loop is the portable one, compared with itself\n",
-            );
-        }
+        crate::x86::Avx2::detect_or_note(
+            "the dispatched loop is the portable one, compared with itself",
+        );
         let mesh = bunny();
         let tree: AabbTree = AabbTree::build(mesh.clone(), &BuildOptions::default()).unwrap();
         let rays: Vec<Ray> = random_rays(&mesh, 20_000, 3);

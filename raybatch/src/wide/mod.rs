@@ -594,13 +594,7 @@ mod tests {
 
     fn dispatched_and_portable_loops_agree_for<N: NodeKind>() {
         #[cfg(target_arch = "x86_64")]
-        if !std::arch::is_x86_feature_detected!("avx2") {
-            // Written to stderr directly so the test harness shows it even on success.
-            let _ = std::io::Write::write_all(
-                &mut std::io::stderr(),
-                b"note: this CPU lacks AVX2: the dispatched wide loop is the portable one\n",
-            );
-        }
+        crate::x86::Avx2::detect_or_note("the dispatched wide loop is the portable one");
         let mesh = Arc::new(bunny());
         let tree = WideBvh::<N>::build(mesh.clone(), &BuildOptions::default()).unwrap();
         let mut stack = Stack::default();

@@ -18,12 +18,12 @@
 //! (`WideRay::hits_planes`), lane by lane the scalar slab test on the decoded box; the
 //! stream engine decodes a node once for all the rays that reach it.
 
-use glam::{Vec3, Vec4};
+use glam::Vec4;
 
 use super::kind::layout::Layout;
 use super::kind::octant_orders;
 use super::node::{Planes, WideRay};
-use super::quantize::{Grid, plane};
+use super::quantize::Grid;
 use super::stack::Stack;
 use super::stream::StreamPlanes;
 use crate::bvh::LeafCopy;
@@ -60,13 +60,8 @@ impl QuantizedWideNode {
 
     /// The decoded box of slot `slot` (it holds the child's exact box).
     pub(crate) fn slot_bounds(&self, slot: usize) -> Aabb {
-        let steps = self.grid().steps();
-        let corner = |rows: &[[u8; WIDTH]; 3]| {
-            Vec3::from_array(std::array::from_fn(|a| {
-                plane(self.origin[a], rows[a][slot], steps[a])
-            }))
-        };
-        Aabb::new(corner(&self.low), corner(&self.high))
+        let at = |rows: &[[u8; WIDTH]; 3]| rows.map(|row| row[slot]);
+        self.grid().decode_box(at(&self.low), at(&self.high))
     }
 
     /// The six decoded planes of all four slots: minima then maxima, per axis.

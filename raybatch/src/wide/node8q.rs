@@ -21,8 +21,6 @@
 //! Half the node bytes of [`super::node8`] for the same visits, plus a few more boxes entered
 //! (each decoded box is up to a 255th of the node's extent larger than the exact one).
 
-use glam::Vec3;
-
 use super::kind::layout::Layout;
 use super::kind::octant_orders;
 use super::node::WideRay;
@@ -64,11 +62,8 @@ impl QuantizedWideNode8 {
 
     /// The decoded box of slot `slot` (it holds the child's exact box).
     pub(crate) fn slot_bounds(&self, slot: usize) -> Aabb {
-        let rows = self.decoded();
-        Aabb::new(
-            Vec3::new(rows[0][slot], rows[1][slot], rows[2][slot]),
-            Vec3::new(rows[3][slot], rows[4][slot], rows[5][slot]),
-        )
+        let at = |rows: &[[u8; WIDTH]; 3]| rows.map(|row| row[slot]);
+        self.grid().decode_box(at(&self.low), at(&self.high))
     }
 
     /// The six decoded planes of all eight slots: minima then maxima, per axis (the layout
@@ -108,13 +103,6 @@ impl QuantizedWideNode8 {
     #[inline(always)]
     pub(crate) fn hits_portable(&self, ray: &WideRay, tmax: f32) -> (u32, [f32; WIDTH]) {
         slabs_by_halves(&self.decoded(), ray, tmax)
-    }
-
-    /// The grid's corner and per-axis step, for the AVX2 decode.
-    #[cfg(target_arch = "x86_64")]
-    #[inline(always)]
-    pub(crate) fn origin_and_steps(&self) -> ([f32; 3], [f32; 3]) {
-        (self.origin, self.grid().steps())
     }
 
     /// The order word of direction octant `octant`.
@@ -195,62 +183,5 @@ impl Layout for QuantizedWideNode8 {
     #[inline(always)]
     fn order_word(&self, octant: u32) -> u32 {
         self.order(octant)
-    }
-}
-
-#[cfg(all(test, target_arch = "x86_64"))]
-mod tests {
-    use super::*;
-    use crate::geom::{PreparedRay, Ray};
-    use crate::test_support::TestRng;
-    use crate::wide::node::BoxSimd;
-    use crate::wide::simd::{Avx2, slabs8q};
-
-    /// The AVX2 decode and test give, on every lane (unused slots included), the mask and the
-    /// entries of its portable twin, over nodes far from the origin, tiny and large ones, and
-    /// rays from inside and outside them.
-    #[test]
-    fn avx2_decode_and_test_equal_the_portable_twin() {
-        let Some(avx2) = Avx2::detect() else {
-            let _ = std::io::Write::write_all(
-                &mut std::io::stderr(),
-                b"note: this CPU lacks AVX2: only the portable box test runs\n",
-            );
-            return;
-        };
-        let mut rng = TestRng::new(23);
-        let mut hit_lanes = 0;
-        for round in 0..20_000 {
-            let offset = [0.0, 1e3, -3e5, 7e6][round % 4];
-            let size = [1e-6, 1.0, 50.0, 1e4][(round / 4) % 4];
-            let used = 1 + round % WIDTH;
-            let children: Vec<(Aabb, u32)> = (0..used)
-                .map(|slot| {
-                    let a = rng.vec3(size) + offset;
-                    let b = a + rng.vec3(size).abs();
-                    (Aabb::new(a.min(b), a.max(b)), slot as u32)
-                })
-                .collect();
-            let node = QuantizedWideNode8::from_children(&children);
-            let origin = rng.vec3(size * 3.0) + offset;
-            let tmax = if round % 3 == 0 {
-                f32::INFINITY
-            } else {
-                rng.range(0.0, size * 5.0)
-            };
-            let ray = Ray::with_range(origin, rng.vec3(1.0), 0.0, tmax);
-            let Some(ray) = PreparedRay::new(&ray) else {
-                continue;
-            };
-            let wide_ray = WideRay::new(&ray, BoxSimd::detect(true));
-            let (mask, entries) = slabs8q(avx2, &wide_ray, &node, tmax);
-            let (twin_mask, twin_entries) = node.hits_portable(&wide_ray, tmax);
-            assert_eq!(mask, twin_mask, "{children:?}, {ray:?}");
-            hit_lanes += mask.count_ones();
-            for slot in (0..WIDTH).filter(|slot| mask & (1 << slot) != 0) {
-                assert_eq!(entries[slot], twin_entries[slot], "slot {slot}, {ray:?}");
-            }
-        }
-        assert!(hit_lanes > 5_000, "{hit_lanes} lanes hit");
     }
 }

@@ -13,6 +13,8 @@
 //! A SIMD decode must round as this one does: a multiply then an add (a fused multiply-add
 //! rounds the same sum while the product is exact, but not where it overflows, at exponent 254).
 
+use glam::Vec3;
+
 use crate::geom::Aabb;
 
 /// The grid step of biased exponent `exponent` (1..=254: a normal power of two).
@@ -61,6 +63,17 @@ impl Grid {
     #[inline(always)]
     pub(crate) fn steps(&self) -> [f32; 3] {
         self.exponent.map(step)
+    }
+
+    /// The box of per-axis steps `low` (its minimum) and `high` (its maximum), decoded.
+    pub(crate) fn decode_box(&self, low: [u8; 3], high: [u8; 3]) -> Aabb {
+        let steps = self.steps();
+        let corner = |at: [u8; 3]| {
+            Vec3::from_array(std::array::from_fn(|a| {
+                plane(self.origin[a], at[a], steps[a])
+            }))
+        };
+        Aabb::new(corner(low), corner(high))
     }
 
     /// The largest steps on axis `axis` whose plane lies at or below `value` (0 decodes to
@@ -149,22 +162,29 @@ mod tests {
         decoded_boxes_hold_the_exact_ones_for::<QuantizedWideNode8>();
     }
 
+    /// Round `round`'s children (1 to `width` of them, slot 1 flat in y): far from the origin
+    /// or not, tiny, unit or large, by the round; and their size.
+    fn spread_children(rng: &mut TestRng, round: usize, width: usize) -> (Vec<(Aabb, u32)>, f32) {
+        let offset = [0.0, 1e3, -3e5, 7e6][round % 4];
+        let size = [1e-6, 1.0, 50.0, 1e4][(round / 4) % 4];
+        let children = (0..1 + round % width)
+            .map(|slot| {
+                let a = rng.vec3(size) + offset;
+                let mut b = a + rng.vec3(size).abs();
+                if slot == 1 {
+                    b.y = a.y;
+                }
+                (Aabb::new(a.min(b), a.max(b)), slot as u32)
+            })
+            .collect();
+        (children, size)
+    }
+
     fn decoded_boxes_hold_the_exact_ones_for<N: Quantized>() {
         let mut rng = TestRng::new(21);
         for round in 0..5_000 {
-            let offset = [0.0, 1e3, -3e5, 7e6][round % 4];
-            let size = [1e-6, 1.0, 50.0, 1e4][(round / 4) % 4];
-            let used = 1 + round % N::WIDTH;
-            let children: Vec<(Aabb, u32)> = (0..used)
-                .map(|slot| {
-                    let a = rng.vec3(size) + offset;
-                    let mut b = a + rng.vec3(size).abs();
-                    if slot == 1 {
-                        b.y = a.y;
-                    }
-                    (Aabb::new(a.min(b), a.max(b)), slot as u32)
-                })
-                .collect();
+            let (children, _) = spread_children(&mut rng, round, N::WIDTH);
+            let used = children.len();
             let node = N::from_children(&children);
             let steps = node.grid_of().steps();
             assert_eq!(node.used_slots(), used);
@@ -239,5 +259,43 @@ mod tests {
             let exact = boxes[slot].entry(ray, tmax);
             assert!(hit && entries[slot] <= exact, "slot {slot}, {ray:?}");
         }
+    }
+
+    /// The 8-wide node's AVX2 decode and test give, on every lane (unused slots included),
+    /// the mask and the entries of its portable twin, over nodes far from the origin, tiny and
+    /// large ones, and rays from inside and outside them.
+    #[cfg(target_arch = "x86_64")]
+    #[test]
+    fn avx2_decode_and_test_equal_the_portable_twin() {
+        use crate::geom::Ray;
+        use crate::wide::simd::{Avx2, slabs8q};
+        let Some(avx2) = Avx2::detect_or_note("only the portable box test runs") else {
+            return;
+        };
+        let mut rng = TestRng::new(23);
+        let mut hit_lanes = 0;
+        for round in 0..20_000 {
+            let (children, size) = spread_children(&mut rng, round, 8);
+            let node = QuantizedWideNode8::from_children(&children);
+            let origin = rng.vec3(size * 3.0) + children[0].0.min;
+            let tmax = if round % 3 == 0 {
+                f32::INFINITY
+            } else {
+                rng.range(0.0, size * 5.0)
+            };
+            let ray = Ray::with_range(origin, rng.vec3(1.0), 0.0, tmax);
+            let Some(ray) = PreparedRay::new(&ray) else {
+                continue;
+            };
+            let wide_ray = WideRay::new(&ray, BoxSimd::detect(true));
+            let (mask, entries) = slabs8q(avx2, &wide_ray, &node, tmax);
+            let (twin_mask, twin_entries) = node.hits_portable(&wide_ray, tmax);
+            assert_eq!(mask, twin_mask, "{children:?}, {ray:?}");
+            hit_lanes += mask.count_ones();
+            for slot in (0..8).filter(|slot| mask & (1 << slot) != 0) {
+                assert_eq!(entries[slot], twin_entries[slot], "slot {slot}, {ray:?}");
+            }
+        }
+        assert!(hit_lanes > 5_000, "{hit_lanes} lanes hit");
     }
 }

@@ -111,7 +111,8 @@ pub(crate) fn slabs8q(
 #[inline]
 #[target_feature(enable = "avx2")]
 unsafe fn slabs8q_avx2(ray: &WideRay, node: &QuantizedWideNode8, tmax: f32) -> (u32, [f32; 8]) {
-    let (origin, steps) = node.origin_and_steps();
+    let grid = node.grid();
+    let (origin, steps) = (grid.origin, grid.steps());
     // Row `row` of the decoded planes (min x, y, z, max x, y, z), decoded where it is asked for.
     let row = |row: usize| {
         let (bytes, axis) = if row < 3 {

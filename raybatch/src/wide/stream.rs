@@ -683,11 +683,7 @@ mod tests {
     /// one-ray masks are the scalar slab test's.
     #[test]
     fn eight_at_a_time_equals_one_at_a_time() {
-        let Some(avx2) = Avx2::detect() else {
-            let _ = std::io::Write::write_all(
-                &mut std::io::stderr(),
-                b"note: this CPU lacks AVX2: the split runs one ray at a time only\n",
-            );
+        let Some(avx2) = Avx2::detect_or_note("the split runs one ray at a time only") else {
             return;
         };
         eight_at_a_time_equals_one_at_a_time_for::<WideNode>(avx2);
