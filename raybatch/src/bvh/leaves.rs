@@ -36,15 +36,20 @@ pub enum LeafCopy {
     Indices,
     /// Each triangle's corners (36 bytes per triangle).
     Corners,
+    /// The wide trees: each leaf's triangle ids and distinct corners in one block, one read a
+    /// leaf (about 30 bytes per triangle on a terrain, see `wide::blocks`). The binary trees
+    /// copy the indices instead.
+    Blocks,
 }
 
 impl LeafCopy {
     /// Every choice.
-    pub const ALL: [LeafCopy; 4] = [
+    pub const ALL: [LeafCopy; 5] = [
         LeafCopy::Auto,
         LeafCopy::Nothing,
         LeafCopy::Indices,
         LeafCopy::Corners,
+        LeafCopy::Blocks,
     ];
 
     /// Short name for tables and the command line.
@@ -54,6 +59,7 @@ impl LeafCopy {
             LeafCopy::Nothing => "nothing",
             LeafCopy::Indices => "indices",
             LeafCopy::Corners => "corners",
+            LeafCopy::Blocks => "blocks",
         }
     }
 
@@ -167,18 +173,21 @@ pub(crate) struct LeafTriangles {
 
 impl LeafTriangles {
     /// The triangles of `order` (the builder's slot order) over `mesh`, with `copy` (already
-    /// resolved: [`LeafCopy::Auto`] copies nothing).
+    /// resolved: [`LeafCopy::Auto`] copies nothing; [`LeafCopy::Blocks`], which slots cannot
+    /// hold, copies the indices).
     pub(crate) fn new(mesh: Arc<Mesh>, order: Vec<u32>, copy: LeafCopy) -> Self {
         let len = order.len();
         let slots = match copy {
             LeafCopy::Auto | LeafCopy::Nothing => Slots::Ids(order),
-            LeafCopy::Indices if mesh.vertices().len() <= PackedSlot::MAX_VERTICES => {
+            LeafCopy::Indices | LeafCopy::Blocks
+                if mesh.vertices().len() <= PackedSlot::MAX_VERTICES =>
+            {
                 let indices = mesh.triangles();
                 let packed = |id: u32| PackedSlot::new(indices[id as usize], id);
                 Slots::PackedIndicesAndId(order.into_iter().map(packed).collect())
             }
             // Indices that do not pack: read through the mesh (see `PackedSlot`).
-            LeafCopy::Indices => Slots::Ids(order),
+            LeafCopy::Indices | LeafCopy::Blocks => Slots::Ids(order),
             LeafCopy::Corners => {
                 let corners = Self::corners_of(&mesh, &order);
                 Slots::IdsAndCorners(order, corners)
@@ -325,6 +334,7 @@ mod tests {
             (LeafCopy::Nothing, 4),
             (LeafCopy::Indices, 12),
             (LeafCopy::Corners, 40),
+            (LeafCopy::Blocks, 12),
         ] {
             let mut leaves = LeafTriangles::new(mesh.clone(), order.clone(), copy);
             assert_eq!(leaves.heap_bytes(), order.len() * bytes, "{copy:?}");

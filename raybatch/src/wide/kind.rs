@@ -75,6 +75,9 @@ pub(crate) mod layout {
         /// The child word of slot `slot`.
         fn child(&self, slot: usize) -> u32;
 
+        /// Every slot's child word, to rewrite leaf words (unused slots hold 0, no leaf word).
+        fn children_mut(&mut self) -> &mut [u32];
+
         /// The box the node's tests use for slot `slot` (it holds the child's box).
         fn child_bounds(&self, slot: usize) -> Aabb;
 

@@ -24,10 +24,12 @@
 //! tree's leaves, in the same order, tested with the same kernels, so answers are those of
 //! every other structure, bit for bit.
 
+pub(crate) mod blocks;
 pub(crate) mod collapse;
 pub(crate) mod dispatch;
 pub(crate) mod interleaved;
 pub(crate) mod kind;
+pub(crate) mod leaves;
 pub mod node;
 pub mod node4q;
 pub mod node8;
@@ -50,7 +52,7 @@ use crate::accel::{Accel, Footprint, RayStream};
 use crate::batch::Interleave;
 use crate::batch::group::has_dense_octant;
 use crate::bvh::LeafCopy;
-use crate::bvh::build::{BuildError, BuildOptions, BuiltTree, build};
+use crate::bvh::build::{BuildError, BuildOptions, build};
 use crate::bvh::leaves::LeafTriangles;
 use crate::bvh::nodes::leaf_word;
 use crate::geom::{Aabb, PreparedRay, Ray, TriangleTest};
@@ -61,6 +63,8 @@ use node::WideNode;
 use node4q::QuantizedWideNode;
 use node8::WideNode8;
 use node8q::QuantizedWideNode8;
+use blocks::LeafBlocks;
+use leaves::WideLeaves;
 use stack::Stack;
 
 /// A wide BVH over a mesh (see the module docs), of nodes `N`: [`WideTree`] (4 children per
@@ -74,7 +78,7 @@ pub struct WideBvh<N: NodeKind> {
     /// The root's box (the binary root's): wide nodes store their children's boxes only.
     root_bounds: Aabb,
     /// The leaves' triangles (the binary tree's, in its slot order).
-    triangles: LeafTriangles,
+    triangles: WideLeaves,
     /// Whether the tree is beyond the caches (nodes, leaf copy and mesh above
     /// [`INTERLEAVE_ABOVE_BYTES`]): its one-ray walks prefetch (`single::trace_from`), its
     /// incoherent batches take long chunks ([`LARGE_TREE_CHUNK`]).
@@ -107,16 +111,15 @@ impl<N: NodeKind> WideBvh<N> {
         let built = build(&mesh, options)?;
         check_size(built.triangle_order.len(), built.nodes.len(), N::FORMAT)?;
         let root_bounds = built.nodes.first().map_or(Aabb::EMPTY, |n| n.bounds);
-        let (nodes, root) =
+        let (mut nodes, mut root) =
             collapse::collapse(&built, options.wide_leaf_size).unwrap_or((Vec::new(), 0));
-        let copy = options
-            .leaf_copy
-            .or(default_leaf_copy::<N>(&nodes, &built, &mesh));
+        let copy = options.leaf_copy.or(default_leaf_copy::<N>(&mesh));
+        let triangles = leaves((&mut nodes, &mut root), mesh, built.triangle_order, copy);
         let mut tree = Self {
             nodes,
             root,
             root_bounds,
-            triangles: LeafTriangles::new(mesh, built.triangle_order, copy),
+            triangles,
             beyond_caches: false,
         };
         tree.beyond_caches = tree.working_set_bytes() > INTERLEAVE_ABOVE_BYTES;
@@ -138,10 +141,10 @@ impl<N: NodeKind> WideBvh<N> {
         self.triangles.len() == 0
     }
 
-    /// Triangle slot `slot`: its id and corners.
+    /// Triangle `k` of leaf `word`: its id and corners.
     #[inline(always)]
-    fn triangle(&self, slot: u32) -> (u32, [Vec3; 3]) {
-        self.triangles.get(slot)
+    fn triangle(&self, word: u32, k: u32) -> (u32, [Vec3; 3]) {
+        self.triangles.get(word, k)
     }
 
     /// Prefetches link `stage` of the read chain of leaf `word` (see
@@ -149,8 +152,7 @@ impl<N: NodeKind> WideBvh<N> {
     /// are on their way).
     #[inline(always)]
     fn prefetch_leaf(&self, word: u32, stage: u8) -> u8 {
-        let (first, count) = leaf_word::unpack(word);
-        if self.triangles.prefetch(first..first + count, stage) {
+        if self.triangles.prefetch(word, stage) {
             LEAF_READY
         } else {
             stage + 1
@@ -175,19 +177,59 @@ impl<N: NodeKind> WideBvh<N> {
     }
 }
 
-/// What a tree of `nodes` over `mesh` copies of its leaves by default: the layout's
-/// [`NodeKind`] choice for trees beyond the caches if the tree would be beyond them even
-/// without a copy (nodes, slot order and mesh above [`INTERLEAVE_ABOVE_BYTES`]), else its
-/// choice for the others.
-fn default_leaf_copy<N: NodeKind>(nodes: &[N], built: &BuiltTree, mesh: &Mesh) -> LeafCopy {
-    let without_copy =
-        size_of_val(nodes) + size_of_val(built.triangle_order.as_slice()) + mesh.heap_bytes();
-    if without_copy > INTERLEAVE_ABOVE_BYTES {
+/// The leaf triangles of `order` over `mesh` with `copy` for the tree of `nodes` and `root`:
+/// blocks (the tree's leaf words rewritten to address them) if `copy` asks for them and they
+/// are addressable, else slots (with the index copy in place of blocks).
+fn leaves<N: NodeKind>(
+    (nodes, root): (&mut [N], &mut u32),
+    mesh: Arc<Mesh>,
+    order: Vec<u32>,
+    copy: LeafCopy,
+) -> WideLeaves {
+    if copy == LeafCopy::Blocks {
+        let leaf_words = leaf_words_mut((nodes, root)).map(|word| *word);
+        if let Some((blocks, block_words)) = LeafBlocks::new(mesh.clone(), &order, leaf_words) {
+            leaf_words_mut((nodes, root)).for_each(|word| *word = block_words[word]);
+            return WideLeaves::Blocks(blocks);
+        }
+    }
+    WideLeaves::Slots(LeafTriangles::new(mesh, order, copy))
+}
+
+/// Every leaf word of the tree of `nodes` and `root` (the root, if the tree is one leaf).
+fn leaf_words_mut<'a, N: NodeKind>(
+    (nodes, root): (&'a mut [N], &'a mut u32),
+) -> impl Iterator<Item = &'a mut u32> {
+    let lone_root = nodes.is_empty().then_some(root);
+    let children = nodes.iter_mut().flat_map(|node| node.children_mut());
+    lone_root
+        .into_iter()
+        .chain(children)
+        .filter(|word| leaf_word::is_leaf(**word))
+}
+
+/// What a tree over `mesh` copies of its leaves by default: the layout's [`NodeKind`] choice
+/// for trees beyond the caches if [`mesh_beyond_caches`], else its choice for the others.
+fn default_leaf_copy<N: NodeKind>(mesh: &Mesh) -> LeafCopy {
+    if mesh_beyond_caches(mesh) {
         N::LEAF_COPY_BEYOND_CACHES
     } else {
         N::LEAF_COPY
     }
 }
+
+/// Whether the smallest wide tree over `mesh` is beyond the caches: the quantized 8-wide
+/// tree's nodes and slot order, about [`QUANTIZED_TREE_BYTES_PER_TRIANGLE`] without a leaf
+/// copy, plus the mesh, above [`INTERLEAVE_ABOVE_BYTES`]. Known before a build, so that
+/// [`crate::AccelKind::for_mesh`] and the leaf copy agree.
+pub(crate) fn mesh_beyond_caches(mesh: &Mesh) -> bool {
+    let tree = mesh.triangle_count() * QUANTIZED_TREE_BYTES_PER_TRIANGLE;
+    tree + mesh.heap_bytes() > INTERLEAVE_ABOVE_BYTES
+}
+
+/// The quantized 8-wide tree's nodes and slot order per triangle (12.2-12.9 bytes measured on
+/// the fandisk, teapot, bunny, a 1M-triangle terrain and a 500k-triangle heightfield).
+const QUANTIZED_TREE_BYTES_PER_TRIANGLE: usize = 13;
 
 /// A leaf's stage once its whole read chain is prefetched.
 const LEAF_READY: u8 = 2;
@@ -518,38 +560,43 @@ mod tests {
         assert_eq!(permuted.max_chunk(&incoherent), LARGE_TREE_CHUNK);
     }
 
-    /// The quantized 8-wide tree copies its leaves' vertex indices by default only beyond the
-    /// caches (unless told otherwise), and answers there as the 8-wide tree does.
+    /// The quantized 8-wide tree copies nothing by default in the caches and leaf blocks beyond
+    /// them (under the full binary tree's 38.5 bytes a triangle), unless told otherwise, and
+    /// answers there as the 8-wide tree does, with every copy; [`crate::AccelKind::for_mesh`]
+    /// picks it there.
     #[test]
-    fn quantized_trees_copy_indices_beyond_the_caches() {
+    fn quantized_trees_copy_blocks_beyond_the_caches() {
         let node_bytes = |tree: &QuantizedWideTree8| tree.nodes.len() * 128;
         let small = QuantizedWideTree8::build(bunny(), &BuildOptions::default()).unwrap();
-        assert!(!small.beyond_caches);
+        assert!(!small.beyond_caches && !mesh_beyond_caches(small.mesh()));
+        assert_eq!(crate::AccelKind::for_mesh(small.mesh()), crate::AccelKind::Bvh8);
         assert_eq!(
             small.heap_bytes(),
             node_bytes(&small) + small.triangle_count() * 4
         );
         let mesh = Arc::new(large_grid_mesh());
+        assert!(mesh_beyond_caches(&mesh));
+        assert_eq!(crate::AccelKind::for_mesh(&mesh), crate::AccelKind::Bvh8q);
         let large = QuantizedWideTree8::build(mesh.clone(), &BuildOptions::default()).unwrap();
         assert!(large.beyond_caches);
-        assert_eq!(
-            large.heap_bytes(),
-            node_bytes(&large) + large.triangle_count() * 12
-        );
-        let told = BuildOptions {
-            leaf_copy: LeafCopy::Nothing,
+        assert!(matches!(large.triangles, WideLeaves::Blocks(_)));
+        let per_triangle = large.heap_bytes() as f64 / large.triangle_count() as f64;
+        assert!(per_triangle < 38.5, "{per_triangle} bytes a triangle");
+        let told = |leaf_copy| BuildOptions {
+            leaf_copy,
             ..BuildOptions::default()
         };
-        let plain = QuantizedWideTree8::build(mesh.clone(), &told).unwrap();
+        let plain = QuantizedWideTree8::build(mesh.clone(), &told(LeafCopy::Nothing)).unwrap();
         assert_eq!(
             plain.heap_bytes(),
             node_bytes(&plain) + plain.triangle_count() * 4
         );
+        let indices = QuantizedWideTree8::build(mesh.clone(), &told(LeafCopy::Indices)).unwrap();
         let full = WideTree8::build(mesh.clone(), &BuildOptions::default()).unwrap();
         let rays = random_rays(&mesh, 3_000, 9);
         let per_ray: Vec<Option<Hit>> = rays.iter().map(|r| full.cast_ray(r)).collect();
         assert!(per_ray.iter().filter(|hit| hit.is_some()).count() > 100);
-        for tree in [&large, &plain] {
+        for tree in [&large, &plain, &indices] {
             let answers: Vec<Option<Hit>> = rays.iter().map(|r| tree.cast_ray(r)).collect();
             assert!(answers == per_ray);
             let mut batched = vec![None; rays.len()];
@@ -698,6 +745,12 @@ mod tests {
         answers_equal_the_binary_tree_for::<WideNode8>();
     }
 
+    /// The same for the quantized 8-wide tree.
+    #[test]
+    fn quantized_eight_wide_answers_equal_the_binary_tree() {
+        answers_equal_the_binary_tree_for::<QuantizedWideNode8>();
+    }
+
     fn answers_equal_the_binary_tree_for<N: NodeKind>() {
         let mesh = Arc::new(bunny());
         let rays = random_rays(&mesh, 20_000, 5);
@@ -707,6 +760,9 @@ mod tests {
             (4, 1, LeafCopy::Indices),
             (4, 8, LeafCopy::Corners),
             (16, 16, LeafCopy::Auto),
+            (1, 16, LeafCopy::Blocks),
+            (4, 8, LeafCopy::Blocks),
+            (16, 16, LeafCopy::Blocks),
         ];
         for (leaf, wide_leaf, copy) in cases {
             let options = BuildOptions::default()

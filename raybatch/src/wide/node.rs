@@ -274,6 +274,10 @@ impl Layout for WideNode {
         self.child[slot]
     }
 
+    fn children_mut(&mut self) -> &mut [u32] {
+        &mut self.child
+    }
+
     fn child_bounds(&self, slot: usize) -> Aabb {
         self.slot_bounds(slot)
     }

@@ -179,6 +179,10 @@ impl Layout for WideNode8 {
         self.child[slot]
     }
 
+    fn children_mut(&mut self) -> &mut [u32] {
+        &mut self.child
+    }
+
     fn child_bounds(&self, slot: usize) -> Aabb {
         self.slot_bounds(slot)
     }

@@ -97,9 +97,9 @@ pub(crate) fn step<N: NodeKind, K: TriangleTest, V: Visitor>(
     if leaf_word::is_leaf(item) {
         // A plain loop: through an iterator of fetched triangles, its `next` was left out of
         // line on the bunny (62 instructions a triangle, a fifth of a call of 4,096 rays).
-        let (first, count) = leaf_word::unpack(item);
-        for slot in first..first + count {
-            let (triangle, corners) = tree.triangle(slot);
+        let (_, count) = leaf_word::unpack(item);
+        for k in 0..count {
+            let (triangle, corners) = tree.triangle(item, k);
             if test_triangle::<K, V>(ray, id, (triangle, &corners), tmax, visitor) {
                 return None;
             }

@@ -491,8 +491,8 @@ impl<N: NodeKind> Walk<'_, N> {
         end: usize,
         visitor: &mut V,
     ) {
-        let (first, count) = leaf_word::unpack(word);
-        for batch in LeafBatch::fetch(first..first + count, |slot| self.tree.triangle(slot)) {
+        let (_, count) = leaf_word::unpack(word);
+        for batch in LeafBatch::fetch(0..count, |k| self.tree.triangle(word, k)) {
             let filtered = if K::SIGN_FILTER {
                 self.test_quads::<K, V>(&batch, start, end, visitor)
             } else {

@@ -109,9 +109,10 @@ pub struct QueryArgs {
     /// what happens when the path exists.
     #[arg(long, value_name = "HITS.bin")]
     pub out: PathBuf,
-    /// The structure to build.
-    #[arg(long, default_value = AccelKind::DEFAULT.name(), value_parser = tree_parser())]
-    pub tree: AccelKind,
+    /// The structure to build [default: the fastest per ray for the mesh: bvh8, or bvh8q with
+    /// leaf blocks where the tree and mesh are beyond the caches (from about 600k triangles)].
+    #[arg(long, value_parser = tree_parser())]
+    pub tree: Option<AccelKind>,
     /// The triangle test: watertight (exact on shared edges) or moller-trumbore.
     #[arg(long, default_value = Kernel::default().name(), value_parser = choice(&Kernel::ALL, Kernel::name))]
     pub kernel: Kernel,

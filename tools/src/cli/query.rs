@@ -10,7 +10,7 @@
 //! pool of `N` threads (see [`crate::runner`]); `--passes N` times N passes after a warm-up
 //! and reports their median. Every combination writes the same bytes.
 
-use raybatch::{AnyAccel, BuildOptions, Ray};
+use raybatch::{AccelKind, AnyAccel, BuildOptions, Ray};
 use raybatch_tools::formats::{write_closest, write_occluded};
 
 use crate::args::QueryArgs;
@@ -43,12 +43,13 @@ pub fn run(args: &QueryArgs) -> Result<(), CliError> {
     let triangles = mesh.triangle_count();
     progress::step(format!("reading {}", args.rays.display()));
     let rays = read_rays(&args.rays)?;
-    progress::step(format!("building {}", args.tree.name()));
+    let kind = args.tree.unwrap_or_else(|| AccelKind::for_mesh(&mesh));
+    progress::step(format!("building {}", kind.name()));
     let options = BuildOptions::default()
         .with_leaf_size(args.leaf)
         .with_wide_leaf_size(args.wide_leaf)
         .with_leaf_copy(args.leaf_copy);
-    let (tree, build_ms) = time_ms(|| args.tree.build(mesh, &options));
+    let (tree, build_ms) = time_ms(|| kind.build(mesh, &options));
     let tree = tree.map_err(|e| CliError::input(format!("{}: {e}", args.mesh.display())))?;
     progress::step(format!("answering {} rays", rays.len()));
     let answers = answer(&tree, build_ms, &rays, args)?;
@@ -58,7 +59,7 @@ pub fn run(args: &QueryArgs) -> Result<(), CliError> {
         QueryKind::Any => write_occluded(out, answers.runner.occluded()),
     })?;
     progress::done();
-    eprintln!("{}", report(args, triangles, &answers).render());
+    eprintln!("{}", report(args, kind, triangles, &answers).render());
     Ok(())
 }
 
@@ -113,11 +114,11 @@ fn query_for(args: &QueryArgs) -> Query {
     query.with_interleave(args.interleave)
 }
 
-fn report(args: &QueryArgs, triangles: usize, answers: &Answers) -> JsonLine {
+fn report(args: &QueryArgs, kind: AccelKind, triangles: usize, answers: &Answers) -> JsonLine {
     let line = JsonLine::default()
         .int("rays", answers.query.rays)
         .int("triangles", triangles)
-        .str("tree", args.tree.name())
+        .str("tree", kind.name())
         .str("kind", args.kind.name())
         .str("kernel", args.kernel.name())
         .str("engine", answers.engine.name())
@@ -130,7 +131,7 @@ fn report(args: &QueryArgs, triangles: usize, answers: &Answers) -> JsonLine {
         Some(n) => line.int("max_chunk", n),
         None => line,
     };
-    let line = if args.tree.is_wide() {
+    let line = if kind.is_wide() {
         line.int("wide_leaf", args.wide_leaf as usize)
     } else {
         line
