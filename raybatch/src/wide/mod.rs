@@ -14,6 +14,8 @@
 //! - `simd`: the box tests with SSE (4 lanes) and AVX2 (8 lanes) on x86-64 (their portable
 //!   twins are in [`node`], [`node8`] and [`node8q`]), and the stream split's AVX2 eight-ray box tests and
 //!   list writes (twins in `stream`).
+//! - `leaves`: a leaf word's triangles, from slot ranges over the binary tree's leaves or from
+//!   `blocks`, each leaf's ids and distinct corners in one run of words (one read a leaf).
 //! - `single`: the one-ray loop, children in the node's precomputed order for the ray's octant.
 //! - `stack`: the one-ray loop's pending children, pushed without branches.
 //! - `stream`: a stream of rays going down either tree once, split into index lists per

@@ -148,9 +148,11 @@ pub struct QueryArgs {
     pub max_chunk: Option<usize>,
     /// What the tree copies of its leaves' triangles in leaf order: nothing, the vertex
     /// indices with the triangle id (12 bytes per triangle, in place of the 4-byte id; meshes
-    /// of more than 2^21 vertices copy nothing) or the corners (36 bytes per triangle); auto: the
-    /// indices for bvh4 and bvh8, nothing for the others. Fewer dependent loads per leaf;
-    /// the same answers.
+    /// of more than 2^21 vertices copy nothing), the corners (36 bytes per triangle) or, for
+    /// the wide trees, blocks (each leaf's ids and distinct corners together, one read a leaf,
+    /// about 28 bytes per triangle; the binary trees copy the indices instead); auto: the
+    /// indices for bvh4 and bvh8, blocks for bvh8q beyond the caches (over 16 MiB with its
+    /// mesh), nothing for the others. Fewer dependent loads per leaf; the same answers.
     #[arg(long, value_name = "COPY", default_value = LeafCopy::default().name(), value_parser = choice(&LeafCopy::ALL, LeafCopy::name))]
     pub leaf_copy: LeafCopy,
     /// With --batched, whether the wide trees walk rays side by side, hiding cache misses
