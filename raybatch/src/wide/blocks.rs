@@ -22,7 +22,6 @@
 //! A leaf word ([`leaf_word`]) then holds the block's first word and the triangle count in
 //! place of the first slot; `WideBvh::build` rewrites the collapsed tree's leaf words.
 
-use std::collections::HashMap;
 use std::sync::Arc;
 
 use glam::Vec3;
@@ -30,6 +29,18 @@ use glam::Vec3;
 use crate::bvh::nodes::leaf_word;
 use crate::mesh::Mesh;
 use crate::prefetch::prefetch;
+
+/// Each slot-range leaf word's block word, sorted by leaf word.
+#[derive(Debug)]
+pub(crate) struct BlockWords(Vec<(u32, u32)>);
+
+impl BlockWords {
+    /// The block word of leaf word `word`, one of those the blocks were made for.
+    pub(crate) fn get(&self, word: u32) -> u32 {
+        let at = self.0.binary_search_by_key(&word, |&(leaf, _)| leaf);
+        self.0[at.expect("a leaf word the blocks were made for")].1
+    }
+}
 
 /// Every leaf's block (see the module docs).
 #[derive(Clone, Debug)]
@@ -49,13 +60,14 @@ impl LeafBlocks {
         mesh: Arc<Mesh>,
         order: &[u32],
         leaf_words: impl IntoIterator<Item = u32>,
-    ) -> Option<(Self, HashMap<u32, u32>)> {
+    ) -> Option<(Self, BlockWords)> {
         let mut leaves: Vec<u32> = leaf_words.into_iter().collect();
         // Blocks in slot order, so that neighbouring leaves stay neighbours in memory.
         leaves.sort_unstable_by_key(|&word| leaf_word::unpack(word));
         leaves.dedup();
         let mut words = Vec::new();
-        let mut block_words = HashMap::with_capacity(leaves.len());
+        let mut corners = Vec::new();
+        let mut block_words = Vec::with_capacity(leaves.len());
         for word in leaves {
             let (first, count) = leaf_word::unpack(word);
             let block = u32::try_from(words.len()).ok()?;
@@ -63,12 +75,13 @@ impl LeafBlocks {
                 return None;
             }
             let ids = order.get(first as usize..(first + count) as usize)?;
-            push_block(&mut words, &mesh, ids)?;
-            block_words.insert(word, leaf_word::pack(block, count));
+            push_block(&mut words, &mut corners, &mesh, ids)?;
+            block_words.push((word, leaf_word::pack(block, count)));
         }
         words.shrink_to_fit();
         let len = order.len();
-        Some((Self { mesh, words, len }, block_words))
+        block_words.sort_unstable();
+        Some((Self { mesh, words, len }, BlockWords(block_words)))
     }
 
     /// The mesh the ids refer to.
@@ -135,35 +148,47 @@ impl LeafBlocks {
 /// The places of a block's first triangle's corners: the first three of its list.
 const FIRST_PLACES: u32 = 0x02_01_00;
 
-/// Appends the block of triangles `ids` of `mesh` to `words`; `None` (nothing appended)
-/// if the first triangle's corners are not three different vertices.
-fn push_block(words: &mut Vec<u32>, mesh: &Mesh, ids: &[u32]) -> Option<()> {
-    let indices = mesh.triangles();
-    let mut corners: Vec<u32> = Vec::with_capacity(3 * ids.len());
-    let mut place = |vertex: u32| match corners.iter().position(|&v| v == vertex) {
-        Some(at) => at as u32,
-        None => {
-            corners.push(vertex);
-            corners.len() as u32 - 1
-        }
-    };
-    let places: Vec<u32> = ids
-        .iter()
-        .map(|&id| {
-            let [a, b, c] = indices[id as usize].map(&mut place);
-            a | b << 8 | c << 16
-        })
-        .collect();
-    if places.first() != Some(&FIRST_PLACES) {
-        return None;
-    }
+/// Appends the block of triangles `ids` of `mesh` to `words`, with `corners` as scratch;
+/// `None` (nothing appended) if the first triangle's corners are not three different vertices.
+fn push_block(
+    words: &mut Vec<u32>,
+    corners: &mut Vec<u32>,
+    mesh: &Mesh,
+    ids: &[u32],
+) -> Option<()> {
+    let start = words.len();
     words.extend_from_slice(ids);
-    words.extend(&places[1..]);
+    corners.clear();
+    for (k, &id) in ids.iter().enumerate() {
+        let places = mesh.triangles()[id as usize]
+            .iter()
+            .enumerate()
+            .fold(0, |places, (j, &vertex)| {
+                places | place(corners, vertex) << (8 * j)
+            });
+        match k {
+            0 if places != FIRST_PLACES => {
+                words.truncate(start);
+                return None;
+            }
+            0 => {}
+            _ => words.push(places),
+        }
+    }
     let vertices = mesh.vertices();
-    for vertex in corners {
+    for &vertex in corners.iter() {
         words.extend(vertices[vertex as usize].to_array().map(f32::to_bits));
     }
     Some(())
+}
+
+/// Where `vertex` is in `corners`, added at the end if it is not there yet.
+fn place(corners: &mut Vec<u32>, vertex: u32) -> u32 {
+    let at = corners.iter().position(|&v| v == vertex).unwrap_or_else(|| {
+        corners.push(vertex);
+        corners.len() - 1
+    });
+    at as u32
 }
 
 #[cfg(test)]
@@ -190,7 +215,7 @@ mod tests {
         assert_eq!(blocks.len(), order.len());
         for &word in &leaves {
             let (first, count) = leaf_word::unpack(word);
-            let (block, block_count) = leaf_word::unpack(block_words[&word]);
+            let (block, block_count) = leaf_word::unpack(block_words.get(word));
             assert_eq!(block_count, count);
             let read: Vec<_> = (0..count).map(|k| blocks.get(block, count, k)).collect();
             let expected: Vec<_> = (first..first + count)

@@ -191,7 +191,7 @@ fn leaves<N: NodeKind>(
     if copy == LeafCopy::Blocks {
         let leaf_words = leaf_words_mut((nodes, root)).map(|word| *word);
         if let Some((blocks, block_words)) = LeafBlocks::new(mesh.clone(), &order, leaf_words) {
-            leaf_words_mut((nodes, root)).for_each(|word| *word = block_words[word]);
+            leaf_words_mut((nodes, root)).for_each(|word| *word = block_words.get(*word));
             return WideLeaves::Blocks(blocks);
         }
     }
