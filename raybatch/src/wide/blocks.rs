@@ -184,10 +184,13 @@ fn push_block(
 
 /// Where `vertex` is in `corners`, added at the end if it is not there yet.
 fn place(corners: &mut Vec<u32>, vertex: u32) -> u32 {
-    let at = corners.iter().position(|&v| v == vertex).unwrap_or_else(|| {
-        corners.push(vertex);
-        corners.len() - 1
-    });
+    let at = corners
+        .iter()
+        .position(|&v| v == vertex)
+        .unwrap_or_else(|| {
+            corners.push(vertex);
+            corners.len() - 1
+        });
     at as u32
 }
 

@@ -60,13 +60,13 @@ use crate::bvh::nodes::leaf_word;
 use crate::geom::{Aabb, PreparedRay, Ray, TriangleTest};
 use crate::hit::Visitor;
 use crate::mesh::Mesh;
+use blocks::LeafBlocks;
 pub use kind::NodeKind;
+use leaves::WideLeaves;
 use node::WideNode;
 use node4q::QuantizedWideNode;
 use node8::WideNode8;
 use node8q::QuantizedWideNode8;
-use blocks::LeafBlocks;
-use leaves::WideLeaves;
 use stack::Stack;
 
 /// A wide BVH over a mesh (see the module docs), of nodes `N`: [`WideTree`] (4 children per
@@ -571,7 +571,10 @@ mod tests {
         let node_bytes = |tree: &QuantizedWideTree8| tree.nodes.len() * 128;
         let small = QuantizedWideTree8::build(bunny(), &BuildOptions::default()).unwrap();
         assert!(!small.beyond_caches && !mesh_beyond_caches(small.mesh()));
-        assert_eq!(crate::AccelKind::for_mesh(small.mesh()), crate::AccelKind::Bvh8);
+        assert_eq!(
+            crate::AccelKind::for_mesh(small.mesh()),
+            crate::AccelKind::Bvh8
+        );
         assert_eq!(
             small.heap_bytes(),
             node_bytes(&small) + small.triangle_count() * 4
@@ -604,6 +607,50 @@ mod tests {
             let mut batched = vec![None; rays.len()];
             tree.cast_rays(&rays, &mut batched).unwrap();
             assert!(batched == per_ray);
+        }
+    }
+
+    /// Leaf blocks on the smallest trees (no triangle, a root that is one leaf, a few leaves)
+    /// and on a mesh whose degenerate triangles get no slot: every answer is brute force's,
+    /// per ray and batched.
+    #[test]
+    fn blocks_serve_tiny_trees() {
+        let fan = |n: u32| {
+            let mut vertices = vec![Vec3::ZERO];
+            vertices.extend((0..=n).map(|k| Vec3::new((k as f32).cos(), (k as f32).sin(), 0.1)));
+            let mut triangles: Vec<[u32; 3]> = (1..=n).map(|k| [0, k, k + 1]).collect();
+            triangles.push([1, 1, 2]);
+            Mesh::new(vertices, triangles).unwrap()
+        };
+        let options = BuildOptions::default().with_leaf_copy(LeafCopy::Blocks);
+        for mesh in [
+            Mesh::new(Vec::new(), Vec::new()).unwrap(),
+            fan(1),
+            fan(3),
+            fan(40),
+        ] {
+            let mesh = Arc::new(mesh);
+            let tree = QuantizedWideTree8::build(mesh.clone(), &options).unwrap();
+            assert!(matches!(tree.triangles, WideLeaves::Blocks(_)));
+            let rays: Vec<Ray> = (0..400)
+                .map(|k| {
+                    let at = Vec3::new(
+                        (k % 20) as f32 * 0.1 - 1.0,
+                        (k / 20) as f32 * 0.1 - 1.0,
+                        1.0,
+                    );
+                    Ray::new(at, Vec3::new(0.01, -0.02, -1.0))
+                })
+                .collect();
+            let mut batched = vec![None; rays.len()];
+            tree.cast_rays(&rays, &mut batched).unwrap();
+            let hits = batched.iter().filter(|hit| hit.is_some()).count();
+            assert_eq!(hits > 0, !mesh.is_empty());
+            for (ray, batched) in rays.iter().zip(&batched) {
+                let expected = crate::query::brute_force::cast_ray(&mesh, ray, Kernel::Watertight);
+                assert_eq!(bits(tree.cast_ray(ray)), bits(expected), "{ray:?}");
+                assert_eq!(bits(*batched), bits(expected), "{ray:?}");
+            }
         }
     }
 
