@@ -78,18 +78,18 @@ impl AccelKind {
     /// Memory 28.4-35.6 B/tri against 26.6-28.4. The quantized 4-wide tree takes 11.3-12.2
     /// B/tri for about 0.8x the 4-wide tree's speed per ray and 0.9x batched. The quantized
     /// 8-wide tree ([`AccelKind::Bvh8q`]) is 0.81-0.90x this one per ray on meshes that stay
-    /// in the caches, but 1.06-1.3x on 1M-triangle meshes (six races of seven; 0.96-0.99x
-    /// batched), at 12.2-15.8 B/tri (20.0-20.8 beyond the caches, where it copies its leaves'
-    /// vertex indices).
+    /// in the caches, at 12.2-15.8 B/tri; beyond them it takes leaf blocks and is faster:
+    /// [`AccelKind::for_mesh`] picks by size.
     pub const DEFAULT: AccelKind = AccelKind::Bvh8;
 
     /// The fastest exact structure for `mesh` per ray: [`AccelKind::DEFAULT`], unless the
     /// smallest wide tree and the mesh together are beyond the caches (over 16 MiB, from
-    /// about 600k triangles), where each step of a walk waits on memory: there the quantized
+    /// about 550k triangles), where each step of a walk waits on memory: there the quantized
     /// 8-wide tree ([`AccelKind::Bvh8q`]), whose leaves are then read in one trip to memory
     /// instead of two (leaf blocks, [`crate::LeafCopy::Blocks`]), at 36-38 B/tri, under the
     /// full binary tree's 38.5. Against the 8-wide tree on 1M-triangle meshes (one thread,
-    /// 1M incoherent rays, alternated in one process, best of 3): 1.33-1.40x per ray.
+    /// 1M incoherent rays, alternated in one process, best of 3): 1.33-1.40x per ray (1.27-1.28x in
+    /// races with Embree, `peers --race`).
     pub fn for_mesh(mesh: &Mesh) -> AccelKind {
         if crate::wide::mesh_beyond_caches(mesh) {
             AccelKind::Bvh8q

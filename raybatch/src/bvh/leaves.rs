@@ -25,7 +25,7 @@ pub enum LeafCopy {
     /// The structure's default: the wide trees with full nodes ([`crate::WideTree`],
     /// [`crate::WideTree8`]) copy the vertex indices; the quantized 8-wide tree
     /// ([`crate::QuantizedWideTree8`]) copies leaf blocks ([`LeafCopy::Blocks`]) when it is
-    /// beyond the caches (over 16 MiB with its mesh, from about 600k triangles), where they
+    /// beyond the caches (over 16 MiB with its mesh, from about 550k triangles), where they
     /// make its rays 1.3x faster for 36-38 bytes a triangle in all; the others copy nothing
     /// (their memory is their point).
     #[default]

@@ -110,7 +110,7 @@ pub struct QueryArgs {
     #[arg(long, value_name = "HITS.bin")]
     pub out: PathBuf,
     /// The structure to build [default: the fastest per ray for the mesh: bvh8, or bvh8q with
-    /// leaf blocks where the tree and mesh are beyond the caches (from about 600k triangles)].
+    /// leaf blocks where the tree and mesh are beyond the caches (from about 550k triangles)].
     #[arg(long, value_parser = tree_parser())]
     pub tree: Option<AccelKind>,
     /// The triangle test: watertight (exact on shared edges) or moller-trumbore.
