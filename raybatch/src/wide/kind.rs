@@ -49,9 +49,10 @@ pub(crate) mod layout {
         const FORMAT: &'static str;
         /// What the tree copies of its leaves by default ([`crate::LeafCopy::Auto`]).
         const LEAF_COPY: LeafCopy;
-        /// What it copies by default on trees beyond the caches, where a leaf's chain of
-        /// dependent reads costs a trip to memory per link (`wide::default_leaf_copy`).
-        const LEAF_COPY_BEYOND_CACHES: LeafCopy = Self::LEAF_COPY;
+        /// What it copies by default on large trees (over 8 MiB with the mesh), where a leaf's
+        /// chain of dependent reads costs a trip to L3 or memory per link
+        /// (`wide::default_leaf_copy`).
+        const LEAF_COPY_LARGE: LeafCopy = Self::LEAF_COPY;
 
         /// The node of `children` (at most `WIDTH` boxes and child words, in slots `0..`),
         /// with its per-octant child orders.

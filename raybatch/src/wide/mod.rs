@@ -116,6 +116,9 @@ impl<N: NodeKind> WideBvh<N> {
         let (mut nodes, mut root) =
             collapse::collapse(&built, options.wide_leaf_size).unwrap_or((Vec::new(), 0));
         let copy = options.leaf_copy.or(default_leaf_copy::<N>(&mesh));
+        let budget = (options.leaf_copy == LeafCopy::Auto)
+            .then(|| mesh.triangle_count() * AUTO_BLOCKS_MAX_BYTES_PER_TRIANGLE);
+        let copy = (copy, budget);
         let triangles = leaves((&mut nodes, &mut root), mesh, built.triangle_order, copy);
         let mut tree = Self {
             nodes,
@@ -180,17 +183,22 @@ impl<N: NodeKind> WideBvh<N> {
 }
 
 /// The leaf triangles of `order` over `mesh` with `copy` for the tree of `nodes` and `root`:
-/// blocks (the tree's leaf words rewritten to address them) if `copy` asks for them and they
-/// are addressable, else slots (with the index copy in place of blocks).
+/// blocks (the tree's leaf words rewritten to address them) if `copy` asks for them, they are
+/// addressable and they take, with the nodes, at most `budget` bytes if there is one; else
+/// slots (with the index copy in place of blocks).
 fn leaves<N: NodeKind>(
     (nodes, root): (&mut [N], &mut u32),
     mesh: Arc<Mesh>,
     order: Vec<u32>,
-    copy: LeafCopy,
+    (copy, budget): (LeafCopy, Option<usize>),
 ) -> WideLeaves {
     if copy == LeafCopy::Blocks {
         let leaf_words = leaf_words_mut((nodes, root)).map(|word| *word);
-        if let Some((blocks, block_words)) = LeafBlocks::new(mesh.clone(), &order, leaf_words) {
+        let made = LeafBlocks::new(mesh.clone(), &order, leaf_words);
+        let fits = |blocks: &LeafBlocks| {
+            budget.is_none_or(|max| size_of_val(nodes) + blocks.heap_bytes() <= max)
+        };
+        if let Some((blocks, block_words)) = made.filter(|(blocks, _)| fits(blocks)) {
             leaf_words_mut((nodes, root)).for_each(|word| *word = block_words.get(*word));
             return WideLeaves::Blocks(blocks);
         }
@@ -211,27 +219,46 @@ fn leaf_words_mut<'a, N: NodeKind>(
 }
 
 /// What a tree over `mesh` copies of its leaves by default: the layout's [`NodeKind`] choice
-/// for trees beyond the caches if [`mesh_beyond_caches`], else its choice for the others.
+/// for large trees if the smallest wide tree and the mesh take over [`LARGE_TREE_BYTES`],
+/// else its choice for the others.
 fn default_leaf_copy<N: NodeKind>(mesh: &Mesh) -> LeafCopy {
-    if mesh_beyond_caches(mesh) {
-        N::LEAF_COPY_BEYOND_CACHES
+    if smallest_working_set(mesh) > LARGE_TREE_BYTES {
+        N::LEAF_COPY_LARGE
     } else {
         N::LEAF_COPY
     }
 }
 
-/// Whether the smallest wide tree over `mesh` is beyond the caches: the quantized 8-wide
-/// tree's nodes and slot order, about [`QUANTIZED_TREE_BYTES_PER_TRIANGLE`] without a leaf
-/// copy, plus the mesh, above [`INTERLEAVE_ABOVE_BYTES`]. Known before a build, so that
-/// [`crate::AccelKind::for_mesh`] and the leaf copy agree.
+/// Whether the smallest wide tree over `mesh`, with the mesh, is beyond the caches (above
+/// [`INTERLEAVE_ABOVE_BYTES`]). Known before a build, for [`crate::AccelKind::for_mesh`].
 pub(crate) fn mesh_beyond_caches(mesh: &Mesh) -> bool {
-    let tree = mesh.triangle_count() * QUANTIZED_TREE_BYTES_PER_TRIANGLE;
-    tree + mesh.heap_bytes() > INTERLEAVE_ABOVE_BYTES
+    smallest_working_set(mesh) > INTERLEAVE_ABOVE_BYTES
+}
+
+/// The bytes of the smallest wide tree over `mesh` (the quantized 8-wide tree's nodes and slot
+/// order, about [`QUANTIZED_TREE_BYTES_PER_TRIANGLE`] without a leaf copy) and the mesh.
+fn smallest_working_set(mesh: &Mesh) -> usize {
+    mesh.triangle_count() * QUANTIZED_TREE_BYTES_PER_TRIANGLE + mesh.heap_bytes()
 }
 
 /// The quantized 8-wide tree's nodes and slot order per triangle (12.2-12.9 bytes measured on
 /// the fandisk, teapot, bunny, a 1M-triangle terrain and a 500k-triangle heightfield).
 const QUANTIZED_TREE_BYTES_PER_TRIANGLE: usize = 13;
+
+/// Above this many bytes (smallest tree and mesh) a tree takes its layout's leaf copy for large
+/// trees ([`NodeKind`]'s `LEAF_COPY_LARGE`: leaf blocks for the quantized 8-wide tree). Below
+/// it the tree mostly stays in cache and memory is the quantized trees' point. Measured on the
+/// quantized 8-wide tree (one thread, 1M incoherent rays per ray, alternated, best of 3, ms,
+/// no copy / index copy / blocks): bunny (2.1 MB) 171.9 / 161.7 / 163.0; a bunny subdivided
+/// once (278k triangles, 8.6 MB) 325.6 / 274.4 / 278.9; a 500k-triangle heightfield (15.5 MB)
+/// 444.3 / 358.8 / 330.4, where calls of 4,096 rays took 249-361 ms without a copy and
+/// 187-190 with blocks.
+const LARGE_TREE_BYTES: usize = 8 << 20;
+
+/// The most bytes a triangle a tree's nodes and leaf blocks may take when the blocks are the
+/// default's choice ([`LeafCopy::Auto`]): the full binary tree's 38.5 on the bench's scenes.
+/// Blocks that would take more (a city of small leaves: 41.7) give way to the index copy.
+const AUTO_BLOCKS_MAX_BYTES_PER_TRIANGLE: usize = 38;
 
 /// A leaf's stage once its whole read chain is prefetched.
 const LEAF_READY: u8 = 2;
@@ -562,8 +589,8 @@ mod tests {
         assert_eq!(permuted.max_chunk(&incoherent), LARGE_TREE_CHUNK);
     }
 
-    /// The quantized 8-wide tree copies nothing by default in the caches and leaf blocks beyond
-    /// them (under the full binary tree's 38.5 bytes a triangle), unless told otherwise, and
+    /// The quantized 8-wide tree copies nothing by default on small trees and leaf blocks on
+    /// large ones (under the full binary tree's 38.5 bytes a triangle), unless told otherwise, and
     /// answers there as the 8-wide tree does, with every copy; [`crate::AccelKind::for_mesh`]
     /// picks it there.
     #[test]
@@ -608,6 +635,31 @@ mod tests {
             tree.cast_rays(&rays, &mut batched).unwrap();
             assert!(batched == per_ray);
         }
+    }
+
+    /// On a large tree whose blocks would pass the budget (a soup of 150k triangles sharing no
+    /// corner: 12 bytes of corners a triangle more than a mesh whose triangles share them), the
+    /// default copies the indices instead; blocks asked for are blocks.
+    #[test]
+    fn default_blocks_keep_to_the_budget() {
+        let vertices: Vec<Vec3> = (0..150_000u32)
+            .flat_map(|k| {
+                let at = Vec3::new((k % 400) as f32, (k / 400) as f32, (k % 7) as f32);
+                [at, at + Vec3::X * 0.9, at + Vec3::Y * 0.9]
+            })
+            .collect();
+        let triangles = (0..150_000u32)
+            .map(|k| [3 * k, 3 * k + 1, 3 * k + 2])
+            .collect();
+        let mesh = Arc::new(Mesh::new(vertices, triangles).unwrap());
+        assert!(smallest_working_set(&mesh) > LARGE_TREE_BYTES);
+        let auto = QuantizedWideTree8::build(mesh.clone(), &BuildOptions::default()).unwrap();
+        let indices = auto.nodes.len() * size_of::<QuantizedWideNode8>() + 12 * 150_000;
+        assert_eq!(auto.heap_bytes(), indices);
+        let options = BuildOptions::default().with_leaf_copy(LeafCopy::Blocks);
+        let asked = QuantizedWideTree8::build(mesh.clone(), &options).unwrap();
+        assert!(matches!(asked.triangles, WideLeaves::Blocks(_)));
+        assert!(asked.heap_bytes() > 38 * 150_000);
     }
 
     /// Leaf blocks on the smallest trees (no triangle, a root that is one leaf, a few leaves)

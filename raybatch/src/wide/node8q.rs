@@ -119,10 +119,11 @@ impl Layout for QuantizedWideNode8 {
     const FORMAT: &'static str = "quantized 8-wide nodes (128 B)";
     // As the quantized 4-wide tree: the index copy would add 8 B a triangle to about 12...
     const LEAF_COPY: LeafCopy = LeafCopy::Nothing;
-    // ...except beyond the caches, where a leaf read in one trip to memory instead of two
-    // pays for its bytes: leaf blocks (`wide::blocks`) take a 1M-triangle terrain from 20.0 to
-    // 36 B/tri (under the full binary tree's 38.5) and its rays 1.3x faster.
-    const LEAF_COPY_BEYOND_CACHES: LeafCopy = LeafCopy::Blocks;
+    // ...except on large trees (over 8 MiB with the mesh), where a leaf read in one trip to
+    // memory instead of two pays for its bytes: leaf blocks (`wide::blocks`) take a
+    // 1M-triangle terrain from 20.0 B/tri (the index copy) to 36.0 (under the full binary
+    // tree's 38.5, which the default's blocks never pass) and its rays 1.3x faster.
+    const LEAF_COPY_LARGE: LeafCopy = LeafCopy::Blocks;
 
     fn from_children(children: &[(Aabb, u32)]) -> Self {
         debug_assert!(children.len() <= WIDTH);

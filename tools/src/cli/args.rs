@@ -151,8 +151,8 @@ pub struct QueryArgs {
     /// of more than 2^21 vertices copy nothing), the corners (36 bytes per triangle) or, for
     /// the wide trees, blocks (each leaf's ids and distinct corners together, one read a leaf,
     /// about 28 bytes per triangle; the binary trees copy the indices instead); auto: the
-    /// indices for bvh4 and bvh8, blocks for bvh8q beyond the caches (over 16 MiB with its
-    /// mesh), nothing for the others. Fewer dependent loads per leaf; the same answers.
+    /// indices for bvh4 and bvh8, blocks for bvh8q over 8 MiB with its mesh (the indices
+    /// where blocks would pass 38 bytes a triangle), nothing for the others. Fewer dependent loads per leaf; the same answers.
     #[arg(long, value_name = "COPY", default_value = LeafCopy::default().name(), value_parser = choice(&LeafCopy::ALL, LeafCopy::name))]
     pub leaf_copy: LeafCopy,
     /// With --batched, whether the wide trees walk rays side by side, hiding cache misses
