@@ -78,8 +78,8 @@ impl AccelKind {
     /// Memory 28.4-35.6 B/tri against 26.6-28.4. The quantized 4-wide tree takes 11.3-12.2
     /// B/tri for about 0.8x the 4-wide tree's speed per ray and 0.9x batched. The quantized
     /// 8-wide tree ([`AccelKind::Bvh8q`]) is 0.81-0.90x this one per ray on meshes that stay
-    /// in the caches, at 12.2-15.8 B/tri; beyond them it takes leaf blocks and is faster:
-    /// [`AccelKind::for_mesh`] picks by size.
+    /// in the caches, at 12.2-15.8 B/tri; on large trees it takes leaf blocks, and beyond the
+    /// caches it is the faster one: [`AccelKind::for_mesh`] picks by size.
     pub const DEFAULT: AccelKind = AccelKind::Bvh8;
 
     /// The fastest exact structure for `mesh` per ray: [`AccelKind::DEFAULT`], unless the
@@ -87,9 +87,10 @@ impl AccelKind {
     /// about 550k triangles), where each step of a walk waits on memory: there the quantized
     /// 8-wide tree ([`AccelKind::Bvh8q`]), whose leaves are then read in one trip to memory
     /// instead of two (leaf blocks, [`crate::LeafCopy::Blocks`]), at 36-38 B/tri, under the
-    /// full binary tree's 38.5. Against the 8-wide tree on 1M-triangle meshes (one thread,
-    /// 1M incoherent rays, alternated in one process, best of 3): 1.33-1.40x per ray (1.27-1.28x in
-    /// races with Embree, `peers --race`).
+    /// full binary tree's 38.5 (or with the index copy, 20-21 B/tri, where blocks would take
+    /// more). Against the 8-wide tree on two 1M-triangle meshes, one thread, 1M incoherent
+    /// rays: 1.33-1.40x per ray alternated in one process (best of 3), 1.04-1.28x in four races
+    /// with Embree (`peers --race`, where it reached 0.83-0.91 of Embree per ray).
     pub fn for_mesh(mesh: &Mesh) -> AccelKind {
         if crate::wide::mesh_beyond_caches(mesh) {
             AccelKind::Bvh8q

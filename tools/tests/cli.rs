@@ -272,6 +272,21 @@ fn query_ok(dir: &TempDir, mesh: &Path, rays: &Path, extra: &[&str]) -> (Vec<u8>
     (bytes, stderr(&output).trim_end().to_string())
 }
 
+/// Without `--tree` the query builds the fastest structure for the mesh
+/// (`AccelKind::for_mesh`: the 8-wide tree for a mesh this small), answering as it does.
+#[test]
+fn the_default_tree_is_the_one_for_the_mesh() {
+    let dir = TempDir::new("default-tree");
+    let rays = many_rays();
+    let (mesh, rays_path) = write_inputs(&dir, &rays);
+    let expected = raybatch::AccelKind::for_mesh(&Mesh::from_obj_str(OBJ).unwrap());
+    assert_eq!(expected, raybatch::AccelKind::DEFAULT);
+    let (bytes, line) = query_ok(&dir, &mesh, &rays_path, &["--kind", "closest"]);
+    assert_eq!(json_str(&line, "tree"), Some(expected.name()), "{line}");
+    let named = ["--kind", "closest", "--tree", expected.name()];
+    assert!(query_ok(&dir, &mesh, &rays_path, &named).0 == bytes);
+}
+
 #[test]
 fn batched_and_threaded_output_equals_per_ray_output() {
     let dir = TempDir::new("batched");

@@ -40,8 +40,9 @@ pub enum LeafCopy {
     /// Each triangle's corners (36 bytes per triangle).
     Corners,
     /// The wide trees: each leaf's triangle ids and distinct corners in one block, one read a
-    /// leaf (about 30 bytes per triangle on a terrain, see `wide::blocks`). The binary trees
-    /// copy the indices instead.
+    /// leaf (about 28 bytes per triangle on a terrain, see `wide::blocks`). The binary trees
+    /// copy the indices instead, and so do wide trees whose blocks would not be addressable
+    /// (over 2^27 words: about 19M triangles of a terrain).
     Blocks,
 }
 

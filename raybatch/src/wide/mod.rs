@@ -79,7 +79,8 @@ pub struct WideBvh<N: NodeKind> {
     root: u32,
     /// The root's box (the binary root's): wide nodes store their children's boxes only.
     root_bounds: Aabb,
-    /// The leaves' triangles (the binary tree's, in its slot order).
+    /// The leaves' triangles (the binary tree's, in its slot order), which leaf words address
+    /// by slot range or by block.
     triangles: WideLeaves,
     /// Whether the tree is beyond the caches (nodes, leaf copy and mesh above
     /// [`INTERLEAVE_ABOVE_BYTES`]): its one-ray walks prefetch (`single::trace_from`), its
@@ -493,9 +494,14 @@ impl<N: NodeKind> WideBvh<N> {
         }
     }
 
-    /// What a walk through the tree may read: nodes, leaf order (and corners) and the mesh.
+    /// What a walk through the tree may read: nodes, leaf order or copy, and the mesh (which
+    /// walks over leaf blocks never read).
     fn working_set_bytes(&self) -> usize {
-        self.heap_bytes() + self.mesh().heap_bytes()
+        let mesh = match self.triangles {
+            WideLeaves::Slots(_) => self.mesh().heap_bytes(),
+            WideLeaves::Blocks(_) => 0,
+        };
+        self.heap_bytes() + mesh
     }
 }
 
@@ -850,6 +856,49 @@ mod tests {
     #[test]
     fn quantized_eight_wide_answers_equal_the_binary_tree() {
         answers_equal_the_binary_tree_for::<QuantizedWideNode8>();
+    }
+
+    /// The same for the quantized 4-wide tree.
+    #[test]
+    fn quantized_answers_equal_the_binary_tree() {
+        answers_equal_the_binary_tree_for::<QuantizedWideNode>();
+    }
+
+    /// With every copy and leaf size, the tree's leaf words together read each triangle with
+    /// a slot exactly once, with the mesh's corners: no leaf word is left addressing slots
+    /// when the leaves are blocks, and none addresses another leaf's triangles.
+    #[test]
+    fn leaf_words_read_every_triangle_once() {
+        let mesh = Arc::new(bunny());
+        let slotted: Vec<u32> = (0..mesh.triangle_count() as u32)
+            .filter(|&id| !mesh.is_degenerate(id))
+            .collect();
+        for copy in LeafCopy::ALL {
+            for (leaf, wide_leaf) in [(1, 1), (4, 16), (16, 16)] {
+                let options = BuildOptions::default()
+                    .with_leaf_size(leaf)
+                    .with_wide_leaf_size(wide_leaf)
+                    .with_leaf_copy(copy);
+                let tree = WideTree8::build(mesh.clone(), &options).unwrap();
+                let (mut nodes, mut root) = (tree.nodes.clone(), tree.root);
+                let words: Vec<u32> = leaf_words_mut((&mut nodes, &mut root))
+                    .map(|word| *word)
+                    .collect();
+                let mut read = Vec::new();
+                for word in words {
+                    for k in 0..leaf_word::unpack(word).1 {
+                        let (id, corners) = tree.triangle(word, k);
+                        assert_eq!(corners, mesh.triangle(id), "{copy:?}");
+                        read.push(id);
+                    }
+                }
+                read.sort_unstable();
+                assert!(
+                    read == slotted,
+                    "{copy:?}, leaf {leaf}, wide leaf {wide_leaf}"
+                );
+            }
+        }
     }
 
     fn answers_equal_the_binary_tree_for<N: NodeKind>() {

@@ -53,7 +53,8 @@ pub(crate) fn trace<N: NodeKind, K: TriangleTest, V: Visitor, const PREFETCH: bo
 ///
 /// With `PREFETCH` (for trees beyond the caches, where a step mostly waits on memory), each
 /// step also prefetches the first reads of the pending child after the one it goes on with
-/// (its node's lines, or its leaf's slots), so that they arrive while this one is visited.
+/// (its node's lines, or its leaf's slots or block), so that they arrive while this one is
+/// visited.
 /// Most steps go on with the nearest child hit, whose box test just asked for it; the one
 /// below it on the stack is the next visit whenever the ray leaves this child's subtree
 /// without a hit in front of it, such as after a leaf. Measured with the prefetch at every

@@ -34,7 +34,8 @@ pub trait NodeFormat: Sized + Send + Sync {
 }
 
 /// The leaf word both formats share: bit 31 set, `count - 1` in bits 27..31, first triangle
-/// slot in bits 0..27.
+/// slot in bits 0..27 (in a wide tree over leaf blocks, `wide::blocks`, the block's first
+/// word instead).
 pub(crate) mod leaf_word {
     /// Marks a leaf word.
     pub const LEAF_BIT: u32 = 1 << 31;
