@@ -56,6 +56,7 @@ pub fn race(
     let bvh4 = (AccelKind::Bvh4, build(AccelKind::Bvh4)?);
     let bvh8 = (AccelKind::Bvh8, build(AccelKind::Bvh8)?);
     let bvh8q = (AccelKind::Bvh8q, build(AccelKind::Bvh8q)?);
+    let bvh8qb = (AccelKind::Bvh8qb, build(AccelKind::Bvh8qb)?);
     let scene = rtc::Scene::triangles(
         device,
         mesh.vertices(),
@@ -79,10 +80,10 @@ pub fn race(
             }
         }),
     }];
-    for tree in [&bvh4, &bvh8, &bvh8q] {
+    for tree in [&bvh4, &bvh8, &bvh8q, &bvh8qb] {
         closest.push(per_ray(tree, rays, |t, r| t.cast_ray(r).is_some()));
     }
-    for tree in [&bvh4, &bvh8, &bvh8q] {
+    for tree in [&bvh4, &bvh8, &bvh8q, &bvh8qb] {
         closest.push(batched_closest(tree, rays, None, BatchOrdering::ByOctant));
         closest.push(batched_closest(
             tree,
@@ -109,10 +110,10 @@ pub fn race(
                 }
             }),
         }];
-        for tree in [&bvh4, &bvh8, &bvh8q] {
+        for tree in [&bvh4, &bvh8, &bvh8q, &bvh8qb] {
             occluded.push(per_ray(tree, rays, |t, r| t.occluded(r)));
         }
-        for tree in [&bvh4, &bvh8, &bvh8q] {
+        for tree in [&bvh4, &bvh8, &bvh8q, &bvh8qb] {
             occluded.push(batched_occluded(tree, rays, None));
             occluded.push(batched_occluded(tree, rays, Some(FRAME_CALL)));
         }

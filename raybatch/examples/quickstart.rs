@@ -9,7 +9,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     // (4-wide: 1.02-1.15x as fast on batches of any-hit and camera rays, 6-20% less memory),
     // `AabbTree` and `QuantizedAabbTree` answer the same. For meshes of any size,
     // `AccelKind::for_mesh(&mesh).build(mesh, &options)` picks `bvh8`, or beyond the caches
-    // (from about 550k triangles) the quantized 8-wide tree with leaf blocks: 1.3x per ray there.
+    // (from about 550k triangles) the quantized 8-wide tree with leaf blocks, `bvh8qb`: 1.3x per ray.
     let tree = WideTree8::build(mesh, &BuildOptions::default())?;
 
     // One ray at a time.

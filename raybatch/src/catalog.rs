@@ -39,6 +39,12 @@ pub enum AccelKind {
     /// [`QuantizedWideTree8`]: the 8-wide tree with 8-bit child boxes, two 64-byte lines a
     /// node.
     Bvh8q,
+    /// [`QuantizedWideTree8`] with leaf blocks ([`crate::LeafCopy::Blocks`]) by default on
+    /// large trees (over 8 MiB with the mesh): each leaf one read, as Embree's are. The
+    /// fastest per ray beyond the caches, where [`AccelKind::for_mesh`] picks it; 36-38 B/tri
+    /// there, within the full binary tree's 38.5 (the index copy where blocks would take
+    /// more), where `bvh8q` keeps to the quantized tree's 20-21.
+    Bvh8qb,
     /// [`ZeroByteTree`]: no memory beside the mesh, boxes recomputed, per-thread box cache.
     Zbt,
     /// [`ZeroByteTree`] with the box cache off: every box recomputed at every visit.
@@ -55,13 +61,14 @@ pub enum AccelKind {
 
 impl AccelKind {
     /// Every kind.
-    pub const ALL: [AccelKind; 12] = [
+    pub const ALL: [AccelKind; 13] = [
         AccelKind::Aabb,
         AccelKind::Quantized,
         AccelKind::Bvh4,
         AccelKind::Bvh8,
         AccelKind::Bvh4q,
         AccelKind::Bvh8q,
+        AccelKind::Bvh8qb,
         AccelKind::Zbt,
         AccelKind::ZbtNoCache,
         AccelKind::Hybrid,
@@ -78,22 +85,22 @@ impl AccelKind {
     /// Memory 28.4-35.6 B/tri against 26.6-28.4. The quantized 4-wide tree takes 11.3-12.2
     /// B/tri for about 0.8x the 4-wide tree's speed per ray and 0.9x batched. The quantized
     /// 8-wide tree ([`AccelKind::Bvh8q`]) is 0.81-0.90x this one per ray on meshes that stay
-    /// in the caches, at 12.2-15.8 B/tri; on large trees it takes leaf blocks, and beyond the
-    /// caches it is the faster one: [`AccelKind::for_mesh`] picks by size.
+    /// in the caches, at 12.2-15.8 B/tri; with leaf blocks ([`AccelKind::Bvh8qb`]) it is the
+    /// faster one beyond the caches: [`AccelKind::for_mesh`] picks by size.
     pub const DEFAULT: AccelKind = AccelKind::Bvh8;
 
     /// The fastest exact structure for `mesh` per ray: [`AccelKind::DEFAULT`], unless the
     /// smallest wide tree and the mesh together are beyond the caches (over 16 MiB, from
     /// about 550k triangles), where each step of a walk waits on memory: there the quantized
-    /// 8-wide tree ([`AccelKind::Bvh8q`]), whose leaves are then read in one trip to memory
-    /// instead of two (leaf blocks, [`crate::LeafCopy::Blocks`]), at 36-38 B/tri, under the
-    /// full binary tree's 38.5 (or with the index copy, 20-21 B/tri, where blocks would take
-    /// more). Against the 8-wide tree on two 1M-triangle meshes, one thread, 1M incoherent
-    /// rays: 1.33-1.40x per ray alternated in one process (best of 3), 1.04-1.28x in four races
-    /// with Embree (`peers --race`, where it reached 0.83-0.91 of Embree per ray).
+    /// 8-wide tree with leaf blocks ([`AccelKind::Bvh8qb`]), whose leaves are read in one trip
+    /// to memory instead of two, at 36-38 B/tri, under the full binary tree's 38.5 (or with
+    /// the index copy, 20-21 B/tri, where blocks would take more). Against the 8-wide tree on
+    /// two 1M-triangle meshes, one thread, 1M incoherent rays: 1.33-1.40x per ray alternated
+    /// in one process (best of 3), 1.04-1.28x in four races with Embree (`peers --race`, where
+    /// it reached 0.83-0.91 of Embree per ray).
     pub fn for_mesh(mesh: &Mesh) -> AccelKind {
         if crate::wide::mesh_beyond_caches(mesh) {
-            AccelKind::Bvh8q
+            AccelKind::Bvh8qb
         } else {
             AccelKind::DEFAULT
         }
@@ -108,6 +115,7 @@ impl AccelKind {
             AccelKind::Bvh8 => "bvh8",
             AccelKind::Bvh4q => "bvh4q",
             AccelKind::Bvh8q => "bvh8q",
+            AccelKind::Bvh8qb => "bvh8qb",
             AccelKind::Zbt => "zbt",
             AccelKind::ZbtNoCache => "zbt-nocache",
             AccelKind::Hybrid => "hybrid",
@@ -126,6 +134,7 @@ impl AccelKind {
             AccelKind::Bvh8 => "8-wide tree collapsed from the SAH tree, SIMD box tests",
             AccelKind::Bvh4q => "4-wide tree with 8-bit child boxes, 64-byte nodes",
             AccelKind::Bvh8q => "8-wide tree with 8-bit child boxes, 128-byte nodes",
+            AccelKind::Bvh8qb => "bvh8q with leaf blocks on large trees: one read a leaf",
             AccelKind::Zbt => "zero-byte tree: no memory beside the mesh, box cache",
             AccelKind::ZbtNoCache => "zero-byte tree without the box cache",
             AccelKind::Hybrid => "AABB tree over zero-byte trees of 32-triangle chunks",
@@ -149,6 +158,7 @@ impl AccelKind {
             | AccelKind::Bvh8
             | AccelKind::Bvh4q
             | AccelKind::Bvh8q
+            | AccelKind::Bvh8qb
             | AccelKind::Grid
             | AccelKind::Kd
             | AccelKind::Hash => false,
@@ -160,7 +170,11 @@ impl AccelKind {
     pub fn is_wide(self) -> bool {
         matches!(
             self,
-            AccelKind::Bvh4 | AccelKind::Bvh8 | AccelKind::Bvh4q | AccelKind::Bvh8q
+            AccelKind::Bvh4
+                | AccelKind::Bvh8
+                | AccelKind::Bvh4q
+                | AccelKind::Bvh8q
+                | AccelKind::Bvh8qb
         )
     }
 
@@ -186,6 +200,9 @@ impl AccelKind {
             AccelKind::Bvh8 => AnyAccel::new(WideTree8::build(mesh, options)?),
             AccelKind::Bvh4q => AnyAccel::new(QuantizedWideTree::build(mesh, options)?),
             AccelKind::Bvh8q => AnyAccel::new(QuantizedWideTree8::build(mesh, options)?),
+            AccelKind::Bvh8qb => {
+                AnyAccel::new(QuantizedWideTree8::build_with_blocks(mesh, options)?)
+            }
             AccelKind::Zbt | AccelKind::ZbtNoCache => {
                 let zbt = ZbtOptions {
                     box_cache: self == AccelKind::Zbt,

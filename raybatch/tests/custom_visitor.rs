@@ -123,6 +123,11 @@ fn first_n_hits_visitor_on_every_structure() {
                 &QuantizedWideTree8::build(mesh.clone(), &options).unwrap(),
                 &rays,
             ),
+            AccelKind::Bvh8qb => check(
+                name,
+                &QuantizedWideTree8::build_with_blocks(mesh.clone(), &options).unwrap(),
+                &rays,
+            ),
             AccelKind::Zbt | AccelKind::ZbtNoCache => {
                 let zbt = ZbtOptions {
                     box_cache: kind == AccelKind::Zbt,

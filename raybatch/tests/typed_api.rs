@@ -193,6 +193,10 @@ fn typed_queries_match_any_accel() {
                         let typed = QuantizedWideTree8::build(mesh, &options).unwrap();
                         compare_typed(&name, &typed, &any, &rays)
                     }
+                    AccelKind::Bvh8qb => {
+                        let typed = QuantizedWideTree8::build_with_blocks(mesh, &options).unwrap();
+                        compare_typed(&name, &typed, &any, &rays)
+                    }
                     AccelKind::Zbt | AccelKind::ZbtNoCache => {
                         let zbt = ZbtOptions {
                             box_cache: kind == AccelKind::Zbt,

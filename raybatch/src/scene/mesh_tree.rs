@@ -88,6 +88,9 @@ impl MeshTree {
             AccelKind::Bvh8 => Tree::Wide8(WideTree8::build(mesh, options)?),
             AccelKind::Bvh4q => Tree::Wide4q(QuantizedWideTree::build(mesh, options)?),
             AccelKind::Bvh8q => Tree::Wide8q(QuantizedWideTree8::build(mesh, options)?),
+            AccelKind::Bvh8qb => {
+                Tree::Wide8q(QuantizedWideTree8::build_with_blocks(mesh, options)?)
+            }
             AccelKind::Zbt | AccelKind::ZbtNoCache => {
                 let zbt = ZbtOptions {
                     box_cache: kind == AccelKind::Zbt,

@@ -110,13 +110,34 @@ impl<N: NodeKind> WideBvh<N> {
     /// Builds the binary SAH tree with `options` and collapses it. An empty mesh gives an empty
     /// tree that every ray misses.
     pub fn build(mesh: impl Into<Arc<Mesh>>, options: &BuildOptions) -> Result<Self, BuildError> {
-        let mesh = mesh.into();
+        Self::build_with_large_copy(mesh.into(), options, N::LEAF_COPY_LARGE)
+    }
+
+    /// [`WideBvh::build`], but where [`LeafCopy::Auto`] takes leaf blocks on large trees (over
+    /// 8 MiB with the mesh), within 38 bytes a triangle with the nodes (the index copy where
+    /// they would take more): one read a leaf, the fastest per ray beyond the caches
+    /// ([`crate::AccelKind::Bvh8qb`] for the quantized 8-wide tree).
+    pub fn build_with_blocks(
+        mesh: impl Into<Arc<Mesh>>,
+        options: &BuildOptions,
+    ) -> Result<Self, BuildError> {
+        Self::build_with_large_copy(mesh.into(), options, LeafCopy::Blocks)
+    }
+
+    /// [`WideBvh::build`] with `large_copy` as [`LeafCopy::Auto`]'s choice on large trees.
+    fn build_with_large_copy(
+        mesh: Arc<Mesh>,
+        options: &BuildOptions,
+        large_copy: LeafCopy,
+    ) -> Result<Self, BuildError> {
         let built = build(&mesh, options)?;
         check_size(built.triangle_order.len(), built.nodes.len(), N::FORMAT)?;
         let root_bounds = built.nodes.first().map_or(Aabb::EMPTY, |n| n.bounds);
         let (mut nodes, mut root) =
             collapse::collapse(&built, options.wide_leaf_size).unwrap_or((Vec::new(), 0));
-        let copy = options.leaf_copy.or(default_leaf_copy::<N>(&mesh));
+        let copy = options
+            .leaf_copy
+            .or(default_leaf_copy::<N>(&mesh, large_copy));
         let budget = (options.leaf_copy == LeafCopy::Auto)
             .then(|| mesh.triangle_count() * AUTO_BLOCKS_MAX_BYTES_PER_TRIANGLE);
         let copy = (copy, budget);
@@ -219,12 +240,11 @@ fn leaf_words_mut<'a, N: NodeKind>(
         .filter(|word| leaf_word::is_leaf(**word))
 }
 
-/// What a tree over `mesh` copies of its leaves by default: the layout's [`NodeKind`] choice
-/// for large trees if the smallest wide tree and the mesh take over [`LARGE_TREE_BYTES`],
-/// else its choice for the others.
-fn default_leaf_copy<N: NodeKind>(mesh: &Mesh) -> LeafCopy {
+/// What a tree over `mesh` copies of its leaves by default: `large_copy` if the smallest wide
+/// tree and the mesh take over [`LARGE_TREE_BYTES`], else the layout's [`NodeKind`] choice.
+fn default_leaf_copy<N: NodeKind>(mesh: &Mesh, large_copy: LeafCopy) -> LeafCopy {
     if smallest_working_set(mesh) > LARGE_TREE_BYTES {
-        N::LEAF_COPY_LARGE
+        large_copy
     } else {
         N::LEAF_COPY
     }
@@ -247,9 +267,9 @@ fn smallest_working_set(mesh: &Mesh) -> usize {
 const QUANTIZED_TREE_BYTES_PER_TRIANGLE: usize = 13;
 
 /// Above this many bytes (smallest tree and mesh) a tree takes its layout's leaf copy for large
-/// trees ([`NodeKind`]'s `LEAF_COPY_LARGE`: leaf blocks for the quantized 8-wide tree). Below
-/// it the tree mostly stays in cache and memory is the quantized trees' point. Measured on the
-/// quantized 8-wide tree (one thread, 1M incoherent rays per ray, alternated, best of 3, ms,
+/// trees ([`NodeKind`]'s `LEAF_COPY_LARGE`: the index copy for the quantized 8-wide tree, leaf
+/// blocks with [`WideBvh::build_with_blocks`]). Below it the tree mostly stays in cache and
+/// memory is the quantized trees' point. Measured on the quantized 8-wide tree (one thread, 1M incoherent rays per ray, alternated, best of 3, ms,
 /// no copy / index copy / blocks): bunny (2.1 MB) 171.9 / 161.7 / 163.0; a bunny subdivided
 /// once (278k triangles, 8.6 MB) 325.6 / 274.4 / 278.9; a 500k-triangle heightfield (15.5 MB)
 /// 444.3 / 358.8 / 330.4, where calls of 4,096 rays took 249-361 ms without a copy and
@@ -595,12 +615,12 @@ mod tests {
         assert_eq!(permuted.max_chunk(&incoherent), LARGE_TREE_CHUNK);
     }
 
-    /// The quantized 8-wide tree copies nothing by default on small trees and leaf blocks on
-    /// large ones (under the full binary tree's 38.5 bytes a triangle), unless told otherwise, and
-    /// answers there as the 8-wide tree does, with every copy; [`crate::AccelKind::for_mesh`]
-    /// picks it there.
+    /// The quantized 8-wide tree copies nothing by default on small trees and the indices on
+    /// large ones; built with blocks (`bvh8qb`, which [`crate::AccelKind::for_mesh`] picks
+    /// there) it takes blocks there, under the full binary tree's 38.5 bytes a triangle. Told
+    /// otherwise, it does as told, and it answers as the 8-wide tree does with every copy.
     #[test]
-    fn quantized_trees_copy_blocks_beyond_the_caches() {
+    fn quantized_trees_copy_by_size() {
         let node_bytes = |tree: &QuantizedWideTree8| tree.nodes.len() * 128;
         let small = QuantizedWideTree8::build(bunny(), &BuildOptions::default()).unwrap();
         assert!(!small.beyond_caches && !mesh_beyond_caches(small.mesh()));
@@ -612,13 +632,21 @@ mod tests {
             small.heap_bytes(),
             node_bytes(&small) + small.triangle_count() * 4
         );
+        let small_blocks = QuantizedWideTree8::build_with_blocks(bunny(), &BuildOptions::default());
+        assert_eq!(small_blocks.unwrap().heap_bytes(), small.heap_bytes());
         let mesh = Arc::new(large_grid_mesh());
         assert!(mesh_beyond_caches(&mesh));
-        assert_eq!(crate::AccelKind::for_mesh(&mesh), crate::AccelKind::Bvh8q);
+        assert_eq!(crate::AccelKind::for_mesh(&mesh), crate::AccelKind::Bvh8qb);
         let large = QuantizedWideTree8::build(mesh.clone(), &BuildOptions::default()).unwrap();
         assert!(large.beyond_caches);
-        assert!(matches!(large.triangles, WideLeaves::Blocks(_)));
-        let per_triangle = large.heap_bytes() as f64 / large.triangle_count() as f64;
+        assert_eq!(
+            large.heap_bytes(),
+            node_bytes(&large) + large.triangle_count() * 12
+        );
+        let blocks =
+            QuantizedWideTree8::build_with_blocks(mesh.clone(), &BuildOptions::default()).unwrap();
+        assert!(matches!(blocks.triangles, WideLeaves::Blocks(_)));
+        let per_triangle = blocks.heap_bytes() as f64 / blocks.triangle_count() as f64;
         assert!(per_triangle < 38.5, "{per_triangle} bytes a triangle");
         let told = |leaf_copy| BuildOptions {
             leaf_copy,
@@ -634,7 +662,7 @@ mod tests {
         let rays = random_rays(&mesh, 3_000, 9);
         let per_ray: Vec<Option<Hit>> = rays.iter().map(|r| full.cast_ray(r)).collect();
         assert!(per_ray.iter().filter(|hit| hit.is_some()).count() > 100);
-        for tree in [&large, &plain, &indices] {
+        for tree in [&large, &blocks, &plain, &indices] {
             let answers: Vec<Option<Hit>> = rays.iter().map(|r| tree.cast_ray(r)).collect();
             assert!(answers == per_ray);
             let mut batched = vec![None; rays.len()];
@@ -644,8 +672,8 @@ mod tests {
     }
 
     /// On a large tree whose blocks would pass the budget (a soup of 150k triangles sharing no
-    /// corner: 12 bytes of corners a triangle more than a mesh whose triangles share them), the
-    /// default copies the indices instead; blocks asked for are blocks.
+    /// corner: 12 bytes of corners a triangle more than a mesh whose triangles share them), a
+    /// build with blocks copies the indices instead; blocks asked for are blocks.
     #[test]
     fn default_blocks_keep_to_the_budget() {
         let vertices: Vec<Vec3> = (0..150_000u32)
@@ -659,11 +687,12 @@ mod tests {
             .collect();
         let mesh = Arc::new(Mesh::new(vertices, triangles).unwrap());
         assert!(smallest_working_set(&mesh) > LARGE_TREE_BYTES);
-        let auto = QuantizedWideTree8::build(mesh.clone(), &BuildOptions::default()).unwrap();
+        let auto =
+            QuantizedWideTree8::build_with_blocks(mesh.clone(), &BuildOptions::default()).unwrap();
         let indices = auto.nodes.len() * size_of::<QuantizedWideNode8>() + 12 * 150_000;
         assert_eq!(auto.heap_bytes(), indices);
         let options = BuildOptions::default().with_leaf_copy(LeafCopy::Blocks);
-        let asked = QuantizedWideTree8::build(mesh.clone(), &options).unwrap();
+        let asked = QuantizedWideTree8::build_with_blocks(mesh.clone(), &options).unwrap();
         assert!(matches!(asked.triangles, WideLeaves::Blocks(_)));
         assert!(asked.heap_bytes() > 38 * 150_000);
     }

@@ -119,11 +119,10 @@ impl Layout for QuantizedWideNode8 {
     const FORMAT: &'static str = "quantized 8-wide nodes (128 B)";
     // As the quantized 4-wide tree: the index copy would add 8 B a triangle to about 12...
     const LEAF_COPY: LeafCopy = LeafCopy::Nothing;
-    // ...except on large trees (over 8 MiB with the mesh), where a leaf read in one trip to
-    // memory instead of two pays for its bytes: leaf blocks (`wide::blocks`) take a
-    // 1M-triangle terrain from 20.0 B/tri (the index copy) to 36.0 (under the full binary
-    // tree's 38.5, which the default's blocks never pass) and its rays 1.3x faster.
-    const LEAF_COPY_LARGE: LeafCopy = LeafCopy::Blocks;
+    // ...except on large trees (over 8 MiB with the mesh), where the index copy saves a trip to
+    // memory per leaf and keeps the tree within the quantized tree's 21.3 B/tri (20.0-20.8 on
+    // 1M-triangle meshes). Leaf blocks save one more (`build_with_blocks`, `bvh8qb`) for 36 B/tri.
+    const LEAF_COPY_LARGE: LeafCopy = LeafCopy::Indices;
 
     fn from_children(children: &[(Aabb, u32)]) -> Self {
         debug_assert!(children.len() <= WIDTH);

@@ -109,8 +109,8 @@ pub struct QueryArgs {
     /// what happens when the path exists.
     #[arg(long, value_name = "HITS.bin")]
     pub out: PathBuf,
-    /// The structure to build [default: the fastest per ray for the mesh: bvh8, or bvh8q with
-    /// leaf blocks where the tree and mesh are beyond the caches (from about 550k triangles)].
+    /// The structure to build [default: the fastest per ray for the mesh: bvh8, or bvh8qb
+    /// where the tree and mesh are beyond the caches (from about 550k triangles)].
     #[arg(long, value_parser = tree_parser())]
     pub tree: Option<AccelKind>,
     /// The triangle test: watertight (exact on shared edges) or moller-trumbore.
@@ -119,7 +119,7 @@ pub struct QueryArgs {
     /// Largest leaf size.
     #[arg(long, value_name = "N", default_value = DEFAULT_LEAF, value_parser = leaf_size)]
     pub leaf: u32,
-    /// The wide trees (bvh4, bvh4q, bvh8, bvh8q): the largest leaf their collapse may merge small
+    /// The wide trees (bvh4, bvh4q, bvh8, bvh8q, bvh8qb): the largest leaf their collapse may merge small
     /// subtrees into where the surface area heuristic says it pays (1: the binary tree's
     /// leaves, as before the fourteenth session).
     #[arg(long, value_name = "N", default_value_t = BuildOptions::default().wide_leaf_size, value_parser = leaf_size)]
@@ -151,8 +151,9 @@ pub struct QueryArgs {
     /// of more than 2^21 vertices copy nothing), the corners (36 bytes per triangle) or, for
     /// the wide trees, blocks (each leaf's ids and distinct corners together, one read a leaf,
     /// about 28 bytes per triangle; the binary trees copy the indices instead); auto: the
-    /// indices for bvh4 and bvh8, blocks for bvh8q over 8 MiB with its mesh (the indices
-    /// where blocks would pass 38 bytes a triangle), nothing for the others. Fewer dependent loads per leaf; the same answers.
+    /// indices for bvh4 and bvh8, and for bvh8q over 8 MiB with its mesh, where bvh8qb
+    /// takes blocks (the indices where blocks would pass 38 bytes a triangle), nothing for
+    /// the others. Fewer dependent loads per leaf; the same answers.
     #[arg(long, value_name = "COPY", default_value = LeafCopy::default().name(), value_parser = choice(&LeafCopy::ALL, LeafCopy::name))]
     pub leaf_copy: LeafCopy,
     /// With --batched, whether the wide trees walk rays side by side, hiding cache misses
