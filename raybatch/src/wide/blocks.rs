@@ -30,18 +30,6 @@ use crate::bvh::nodes::leaf_word;
 use crate::mesh::Mesh;
 use crate::prefetch::prefetch;
 
-/// Each slot-range leaf word's block word, sorted by leaf word.
-#[derive(Debug)]
-pub(crate) struct BlockWords(Vec<(u32, u32)>);
-
-impl BlockWords {
-    /// The block word of leaf word `word`, one of those the blocks were made for.
-    pub(crate) fn get(&self, word: u32) -> u32 {
-        let at = self.0.binary_search_by_key(&word, |&(leaf, _)| leaf);
-        self.0[at.expect("a leaf word the blocks were made for")].1
-    }
-}
-
 /// Every leaf's block (see the module docs).
 #[derive(Clone, Debug)]
 pub(crate) struct LeafBlocks {
@@ -52,23 +40,27 @@ pub(crate) struct LeafBlocks {
 }
 
 impl LeafBlocks {
-    /// The blocks of the leaves `leaf_words` (slot-range leaf words; repeats are fine) over
-    /// the triangles `order` (the builder's slot order) of `mesh`, and each leaf word's
-    /// block word. `None` if the blocks would not be addressable by a leaf word (or a leaf
-    /// word names slots beyond `order`, or a leaf's first triangle repeats an index).
+    /// The blocks of the leaves `leaf_words` (slot-range leaf words) over the triangles
+    /// `order` (the builder's slot order) of `mesh`, and the block word of each leaf word, in
+    /// the order given. `None` if the blocks would not be addressable by a leaf word (or a
+    /// leaf word names slots beyond `order`, or a leaf's first triangle repeats an index).
+    ///
+    /// Blocks are laid out in slot order, so that neighbouring leaves stay neighbours in
+    /// memory: in the tree's order instead (a node's leaves side by side), rays took 1.02-1.06x
+    /// the time (one thread, 1M incoherent rays, best of 3, two runs each: terrain 321-327
+    /// against 340 ms, a 1.1M-triangle subdivided bunny 358 against 364-369).
     pub(crate) fn new(
         mesh: Arc<Mesh>,
         order: &[u32],
-        leaf_words: impl IntoIterator<Item = u32>,
-    ) -> Option<(Self, BlockWords)> {
-        let mut leaves: Vec<u32> = leaf_words.into_iter().collect();
-        // Blocks in slot order, so that neighbouring leaves stay neighbours in memory.
-        leaves.sort_unstable_by_key(|&word| leaf_word::unpack(word));
-        leaves.dedup();
+        leaf_words: &[u32],
+    ) -> Option<(Self, Vec<u32>)> {
+        let mut by_slot: Vec<usize> = (0..leaf_words.len()).collect();
+        by_slot.sort_unstable_by_key(|&i| leaf_word::unpack(leaf_words[i]));
         let mut words = Vec::new();
         let mut corners = Vec::new();
-        let mut block_words = Vec::with_capacity(leaves.len());
-        for word in leaves {
+        let mut block_words = vec![0; leaf_words.len()];
+        for i in by_slot {
+            let word = leaf_words[i];
             let (first, count) = leaf_word::unpack(word);
             let block = u32::try_from(words.len()).ok()?;
             if block as usize >= leaf_word::MAX_SLOTS {
@@ -76,12 +68,11 @@ impl LeafBlocks {
             }
             let ids = order.get(first as usize..(first + count) as usize)?;
             push_block(&mut words, &mut corners, &mesh, ids)?;
-            block_words.push((word, leaf_word::pack(block, count)));
+            block_words[i] = leaf_word::pack(block, count);
         }
         words.shrink_to_fit();
         let len = order.len();
-        block_words.sort_unstable();
-        Some((Self { mesh, words, len }, BlockWords(block_words)))
+        Some((Self { mesh, words, len }, block_words))
     }
 
     /// The mesh the ids refer to.
@@ -214,11 +205,12 @@ mod tests {
             first += count;
         }
         leaves.push(leaves[3]);
-        let (blocks, block_words) = LeafBlocks::new(mesh.clone(), &order, leaves.clone()).unwrap();
+        let (blocks, block_words) = LeafBlocks::new(mesh.clone(), &order, &leaves).unwrap();
         assert_eq!(blocks.len(), order.len());
-        for &word in &leaves {
+        assert_eq!(block_words.len(), leaves.len());
+        for (&word, &block_word) in leaves.iter().zip(&block_words) {
             let (first, count) = leaf_word::unpack(word);
-            let (block, block_count) = leaf_word::unpack(block_words.get(word));
+            let (block, block_count) = leaf_word::unpack(block_word);
             assert_eq!(block_count, count);
             let read: Vec<_> = (0..count).map(|k| blocks.get(block, count, k)).collect();
             let expected: Vec<_> = (first..first + count)
@@ -237,10 +229,10 @@ mod tests {
     fn a_shared_edge_shares_corners() {
         let vertices = vec![Vec3::ZERO, Vec3::X, Vec3::Y, Vec3::ONE];
         let mesh = Arc::new(Mesh::new(vertices, vec![[0, 1, 2], [2, 1, 3]]).unwrap());
-        let (blocks, _) = LeafBlocks::new(mesh, &[0, 1], [leaf_word::pack(0, 2)]).unwrap();
+        let (blocks, _) = LeafBlocks::new(mesh, &[0, 1], &[leaf_word::pack(0, 2)]).unwrap();
         assert_eq!(blocks.heap_bytes(), 60);
         let vertices = vec![Vec3::ZERO, Vec3::X, Vec3::Y];
         let mesh = Arc::new(Mesh::new(vertices, vec![[0, 0, 2], [0, 1, 2]]).unwrap());
-        assert!(LeafBlocks::new(mesh, &[0, 1], [leaf_word::pack(0, 2)]).is_none());
+        assert!(LeafBlocks::new(mesh, &[0, 1], &[leaf_word::pack(0, 2)]).is_none());
     }
 }

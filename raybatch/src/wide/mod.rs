@@ -215,13 +215,16 @@ fn leaves<N: NodeKind>(
     (copy, budget): (LeafCopy, Option<usize>),
 ) -> WideLeaves {
     if copy == LeafCopy::Blocks {
-        let leaf_words = leaf_words_mut((nodes, root)).map(|word| *word);
-        let made = LeafBlocks::new(mesh.clone(), &order, leaf_words);
+        let leaf_words: Vec<u32> = leaf_words_mut((nodes, root)).map(|word| *word).collect();
+        let made = LeafBlocks::new(mesh.clone(), &order, &leaf_words);
         let fits = |blocks: &LeafBlocks| {
             budget.is_none_or(|max| size_of_val(nodes) + blocks.heap_bytes() <= max)
         };
         if let Some((blocks, block_words)) = made.filter(|(blocks, _)| fits(blocks)) {
-            leaf_words_mut((nodes, root)).for_each(|word| *word = block_words.get(*word));
+            // The same walk over the leaf words, so the block words come in its order.
+            for (word, block_word) in leaf_words_mut((nodes, root)).zip(block_words) {
+                *word = block_word;
+            }
             return WideLeaves::Blocks(blocks);
         }
     }
