@@ -100,6 +100,11 @@ pub(crate) mod layout {
     }
 }
 
+/// The child words of `children` in slots `0..`, the others 0 (which no leaf word is).
+pub(crate) fn child_words<const W: usize>(children: &[(Aabb, u32)]) -> [u32; W] {
+    std::array::from_fn(|slot| children.get(slot).map_or(0, |&(_, word)| word))
+}
+
 /// The slots of order word `order` of a node of `width` slots, nearest first (see
 /// [`octant_orders`]); every slot once.
 #[inline(always)]

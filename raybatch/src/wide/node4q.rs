@@ -21,7 +21,7 @@
 use glam::Vec4;
 
 use super::kind::layout::Layout;
-use super::kind::octant_orders;
+use super::kind::{child_words, octant_orders};
 use super::node::{Planes, WideRay};
 use super::quantize::Grid;
 use super::stack::Stack;
@@ -60,8 +60,7 @@ impl QuantizedWideNode {
 
     /// The decoded box of slot `slot` (it holds the child's exact box).
     pub(crate) fn slot_bounds(&self, slot: usize) -> Aabb {
-        let at = |rows: &[[u8; WIDTH]; 3]| rows.map(|row| row[slot]);
-        self.grid().decode_box(at(&self.low), at(&self.high))
+        self.grid().decode_slot((&self.low, &self.high), slot)
     }
 
     /// The six decoded planes of all four slots: minima then maxima, per axis.
@@ -119,26 +118,16 @@ impl Layout for QuantizedWideNode {
     fn from_children(children: &[(Aabb, u32)]) -> Self {
         debug_assert!(children.len() <= WIDTH);
         let grid = Grid::around(children);
-        let mut node = QuantizedWideNode {
+        let (low, high) = grid.slot_steps(children);
+        QuantizedWideNode {
             origin: grid.origin,
             exponent: grid.exponent,
             used: children.len() as u8,
-            low: [[0; WIDTH]; 3],
-            high: [[0; WIDTH]; 3],
-            child: [0; WIDTH],
-            order: [0b11_10_01_00; 8],
-        };
-        for (slot, (bounds, _)) in children.iter().enumerate() {
-            for a in 0..3 {
-                node.low[a][slot] = grid.steps_below(a, bounds.min[a]);
-                node.high[a][slot] = grid.steps_above(a, bounds.max[a]);
-            }
+            low,
+            high,
+            child: child_words(children),
+            order: octant_orders(children, WIDTH).map(|word| word as u8),
         }
-        for (slot, (_, word)) in children.iter().enumerate() {
-            node.child[slot] = *word;
-        }
-        node.order = octant_orders(children, WIDTH).map(|word| word as u8);
-        node
     }
 
     #[inline(always)]

@@ -22,7 +22,7 @@
 //! (each decoded box is up to a 255th of the node's extent larger than the exact one).
 
 use super::kind::layout::Layout;
-use super::kind::octant_orders;
+use super::kind::{child_words, octant_orders};
 use super::node::WideRay;
 use super::node8::slabs_by_halves;
 use super::quantize::{Grid, plane};
@@ -62,8 +62,7 @@ impl QuantizedWideNode8 {
 
     /// The decoded box of slot `slot` (it holds the child's exact box).
     pub(crate) fn slot_bounds(&self, slot: usize) -> Aabb {
-        let at = |rows: &[[u8; WIDTH]; 3]| rows.map(|row| row[slot]);
-        self.grid().decode_box(at(&self.low), at(&self.high))
+        self.grid().decode_slot((&self.low, &self.high), slot)
     }
 
     /// The six decoded planes of all eight slots: minima then maxima, per axis (the layout
@@ -127,24 +126,16 @@ impl Layout for QuantizedWideNode8 {
     fn from_children(children: &[(Aabb, u32)]) -> Self {
         debug_assert!(children.len() <= WIDTH);
         let grid = Grid::around(children);
-        let mut node = QuantizedWideNode8 {
+        let (low, high) = grid.slot_steps(children);
+        QuantizedWideNode8 {
             origin: grid.origin,
             exponent: grid.exponent,
             used: children.len() as u8,
-            low: [[0; WIDTH]; 3],
-            high: [[0; WIDTH]; 3],
-            child: [0; WIDTH],
-            order: [0; 8],
-        };
-        for (slot, (bounds, word)) in children.iter().enumerate() {
-            for a in 0..3 {
-                node.low[a][slot] = grid.steps_below(a, bounds.min[a]);
-                node.high[a][slot] = grid.steps_above(a, bounds.max[a]);
-            }
-            node.child[slot] = *word;
+            low,
+            high,
+            child: child_words(children),
+            order: octant_orders(children, WIDTH),
         }
-        node.order = octant_orders(children, WIDTH);
-        node
     }
 
     #[inline(always)]

@@ -76,6 +76,34 @@ impl Grid {
         Aabb::new(corner(low), corner(high))
     }
 
+    /// The rows of a quantized node of `W` slots holding `children`: per axis and slot, the
+    /// steps of each child's box minimum, rounded down (`low`), and maximum, rounded up
+    /// (`high`); slots past the children hold 0.
+    pub(crate) fn slot_steps<const W: usize>(
+        &self,
+        children: &[(Aabb, u32)],
+    ) -> ([[u8; W]; 3], [[u8; W]; 3]) {
+        let (mut low, mut high) = ([[0; W]; 3], [[0; W]; 3]);
+        for (slot, (bounds, _)) in children.iter().enumerate() {
+            for a in 0..3 {
+                low[a][slot] = self.steps_below(a, bounds.min[a]);
+                high[a][slot] = self.steps_above(a, bounds.max[a]);
+            }
+        }
+        (low, high)
+    }
+
+    /// The decoded box of slot `slot` of a quantized node's rows `low` and `high` (it holds the
+    /// child's exact box).
+    pub(crate) fn decode_slot<const W: usize>(
+        &self,
+        (low, high): (&[[u8; W]; 3], &[[u8; W]; 3]),
+        slot: usize,
+    ) -> Aabb {
+        let at = |rows: &[[u8; W]; 3]| rows.map(|row| row[slot]);
+        self.decode_box(at(low), at(high))
+    }
+
     /// The largest steps on axis `axis` whose plane lies at or below `value` (0 decodes to
     /// the origin, at or below every child's minimum).
     pub(crate) fn steps_below(&self, axis: usize, value: f32) -> u8 {
