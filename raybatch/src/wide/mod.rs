@@ -135,12 +135,7 @@ impl<N: NodeKind> WideBvh<N> {
         let root_bounds = built.nodes.first().map_or(Aabb::EMPTY, |n| n.bounds);
         let (mut nodes, mut root) =
             collapse::collapse(&built, options.wide_leaf_size).unwrap_or((Vec::new(), 0));
-        let copy = options
-            .leaf_copy
-            .or(default_leaf_copy::<N>(&mesh, large_copy));
-        let budget = (options.leaf_copy == LeafCopy::Auto)
-            .then(|| mesh.triangle_count() * AUTO_BLOCKS_MAX_BYTES_PER_TRIANGLE);
-        let copy = (copy, budget);
+        let copy = (options.leaf_copy, large_copy);
         let triangles = leaves((&mut nodes, &mut root), mesh, built.triangle_order, copy);
         let mut tree = Self {
             nodes,
@@ -204,16 +199,21 @@ impl<N: NodeKind> WideBvh<N> {
     }
 }
 
-/// The leaf triangles of `order` over `mesh` with `copy` for the tree of `nodes` and `root`:
-/// blocks (the tree's leaf words rewritten to address them) if `copy` asks for them, they are
-/// addressable and they take, with the nodes, at most `budget` bytes if there is one; else
-/// slots (with the index copy in place of blocks).
+/// The leaf triangles of `order` over `mesh` for the tree of `nodes` and `root`, with the copy
+/// `asked` ([`LeafCopy::Auto`]: `large_copy` on large trees, see [`default_leaf_copy`]):
+/// blocks (the tree's leaf words rewritten to address them) if the copy is blocks, they are
+/// addressable and, where `Auto` chose them, they take at most
+/// [`AUTO_BLOCKS_MAX_BYTES_PER_TRIANGLE`] with the nodes; else slots (with the index copy in
+/// place of blocks).
 fn leaves<N: NodeKind>(
     (nodes, root): (&mut [N], &mut u32),
     mesh: Arc<Mesh>,
     order: Vec<u32>,
-    (copy, budget): (LeafCopy, Option<usize>),
+    (asked, large_copy): (LeafCopy, LeafCopy),
 ) -> WideLeaves {
+    let copy = asked.or(default_leaf_copy::<N>(&mesh, large_copy));
+    let budget = (asked == LeafCopy::Auto)
+        .then(|| mesh.triangle_count() * AUTO_BLOCKS_MAX_BYTES_PER_TRIANGLE);
     if copy == LeafCopy::Blocks {
         let leaf_words: Vec<u32> = leaf_words_mut((nodes, root)).map(|word| *word).collect();
         let made = LeafBlocks::new(mesh.clone(), &order, &leaf_words);
