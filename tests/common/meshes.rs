@@ -168,7 +168,7 @@ pub const BUNNY_TRIANGLES: usize = 69_451;
 
 /// The Stanford bunny, read from the workspace's `data/` folder.
 pub fn bunny() -> Mesh {
-    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../data/stanford-bunny.obj");
+    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/data/stanford-bunny.obj");
     let mesh = Mesh::load_obj(path).unwrap_or_else(|e| panic!("{path}: {e}"));
     assert_eq!(mesh.triangle_count(), BUNNY_TRIANGLES, "{path}");
     mesh

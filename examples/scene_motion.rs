@@ -1,23 +1,29 @@
 //! Moving instances: what keeping the top-level tree current costs per frame, refit or rebuild,
 //! and what each leaves for the queries.
 //!
-//! 10,000 crates (the `props` world) over a 1 km square all move every frame (a random walk
+//! 10,000 crates over a 1 km square all move every frame (a random walk
 //! and a turn). Per frame: `set_transforms` (new boxes, one bottom-up refit of the top level)
 //! and, in a second scene, the same plus `rebuild_top` (binned SAH). After the frames, the
 //! same 200,000 rays (batched, closest hit) are cast at both, to show how much a tree that was
 //! only refitted has degraded. Also: 100 instances (1%) moved one by one with `set_transform`
 //! (a refit of each path to the root).
 //!
-//! Run: `cargo run --release -p raybatch-tools --example scene_motion [instances] [frames]`
+//! Run: `cargo run --release --example scene_motion [instances] [frames]`
+
+#[path = "support/town.rs"]
+mod town;
 
 use std::time::Instant;
 
-use raybatch::BatchQueries;
+use rand::rngs::StdRng;
+use rand::{RngExt, SeedableRng};
 use raybatch::glam::Vec3;
-use raybatch::scene::{Rigid, Scene};
-use raybatch::{AccelKind, Hit};
-use raybatch_tools::scenes::instanced::{WorldRays, props, world_rays, yawed};
-use raybatch_tools::scenes::rng::SplitMix64;
+use raybatch::scene::{InstanceDesc, MeshTree, Rigid, Scene};
+use raybatch::{AccelKind, BatchQueries, BuildOptions, Hit, Ray};
+use town::{box_mesh, yawed};
+
+/// Side of the square the crates stand on, in metres.
+const SIDE: f32 = 1000.0;
 
 fn main() {
     let mut args = std::env::args()
@@ -25,18 +31,15 @@ fn main() {
         .map(|a| a.parse::<usize>().expect("a number"));
     let count = args.next().unwrap_or(10_000);
     let frames = args.next().unwrap_or(100);
-    let world = props(count, 1000.0, 7);
-    let mut refitted = world.build(AccelKind::Aabb).expect("scene");
-    let mut rebuilt = world.build(AccelKind::Aabb).expect("scene");
-    let mut rng = SplitMix64::new(8);
+    let mut rng = StdRng::seed_from_u64(8);
     let mut poses: Vec<(f32, Vec3)> = (0..count)
-        .map(|i| {
-            (
-                rng.range_f32(0.0, std::f32::consts::TAU),
-                refitted.instances()[i].transform().translation(),
-            )
+        .map(|_| {
+            let at = Vec3::new(rng.random_range(0.0..SIDE), 0.0, rng.random_range(0.0..SIDE));
+            (rng.random_range(0.0..std::f32::consts::TAU), at)
         })
         .collect();
+    let mut refitted = crates(&poses);
+    let mut rebuilt = crates(&poses);
     let (mut refit_time, mut rebuild_time) = (0.0, 0.0);
     for _ in 0..frames {
         let moves = step(&mut poses, &mut rng);
@@ -59,7 +62,7 @@ fn main() {
         per_frame(rebuild_time)
     );
 
-    let rays = world_rays(WorldRays::Long, &world.bounds(), 200_000, 9);
+    let rays = long_rays(200_000, &mut rng);
     let q_refit = query_time(&refitted, &rays);
     let q_rebuilt = query_time(&rebuilt, &rays);
     println!(
@@ -84,21 +87,44 @@ fn main() {
     );
 }
 
+/// A scene of one crate mesh placed at every pose.
+fn crates(poses: &[(f32, Vec3)]) -> Scene {
+    let mesh = box_mesh(Vec3::new(-1.0, 0.0, -1.0), Vec3::new(1.0, 1.5, 1.0));
+    let tree = MeshTree::build(AccelKind::for_mesh(&mesh), mesh, &BuildOptions::default())
+        .expect("a crate builds");
+    let instances: Vec<InstanceDesc> = poses
+        .iter()
+        .map(|&(yaw, at)| InstanceDesc::new(0, yawed(yaw, at)))
+        .collect();
+    Scene::new(vec![tree], &instances).expect("one mesh, placed")
+}
+
+/// Rays across the square, low over the ground, from one side to a random point.
+fn long_rays(count: usize, rng: &mut StdRng) -> Vec<Ray> {
+    (0..count)
+        .map(|_| {
+            let from = Vec3::new(rng.random_range(0.0..SIDE), 1.0, 0.0);
+            let to = Vec3::new(rng.random_range(0.0..SIDE), 0.5, SIDE);
+            Ray::new(from, to - from)
+        })
+        .collect()
+}
+
 /// One frame of motion for every instance: a step of up to 1 unit and a small turn.
-fn step(poses: &mut [(f32, Vec3)], rng: &mut SplitMix64) -> Vec<(usize, Rigid)> {
+fn step(poses: &mut [(f32, Vec3)], rng: &mut StdRng) -> Vec<(usize, Rigid)> {
     poses
         .iter_mut()
         .enumerate()
         .map(|(i, (yaw, at))| {
-            *yaw += rng.range_f32(-0.1, 0.1);
-            *at += Vec3::new(rng.range_f32(-1.0, 1.0), 0.0, rng.range_f32(-1.0, 1.0));
+            *yaw += rng.random_range(-0.1..0.1);
+            *at += Vec3::new(rng.random_range(-1.0..1.0), 0.0, rng.random_range(-1.0..1.0));
             (i, yawed(*yaw, *at))
         })
         .collect()
 }
 
 /// Milliseconds to cast `rays` batched (best of 3).
-fn query_time(scene: &Scene, rays: &[raybatch::Ray]) -> f64 {
+fn query_time(scene: &Scene, rays: &[Ray]) -> f64 {
     let mut hits: Vec<Option<Hit>> = vec![None; rays.len()];
     (0..3)
         .map(|_| {

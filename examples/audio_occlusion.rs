@@ -7,15 +7,20 @@
 //! segment through a wall's edge or corner crosses one wall, not two (see
 //! `raybatch::users::audio`).
 //!
-//! Run: `cargo run --release -p raybatch-tools --example audio_occlusion [frames]`
+//! Run: `cargo run --release --example audio_occlusion [frames]`
+
+#[path = "support/town.rs"]
+mod town;
 
 use std::time::Instant;
 
+use rand::SeedableRng;
+use rand::rngs::StdRng;
 use raybatch::glam::Vec3;
+use raybatch::scene::{MeshTree, Scene};
 use raybatch::users::{Materials, Occlusion, occlusion, occlusion_batch};
-use raybatch::{AccelKind, Mesh, Ray};
-use raybatch_tools::scenes::instanced::split_into_tiles;
-use raybatch_tools::scenes::{RaySet, SceneKind, city, generate};
+use raybatch::{AccelKind, BuildOptions, Mesh, Ray};
+use town::Town;
 
 const SOURCES: usize = 64;
 const LISTENERS: usize = 8;
@@ -32,16 +37,21 @@ fn main() {
     let frames: usize = std::env::args()
         .nth(1)
         .map_or(100, |a| a.parse().expect("a number"));
-    let town = city(24).mesh;
-    let world = split_into_tiles("town", &town, 16);
-    let scene = world.build(AccelKind::Aabb).expect("the town builds");
-    let tables = world.meshes.iter().map(wall_losses).collect();
+    let town = Town::new(16, 0, 31);
+    let trees = town
+        .meshes
+        .iter()
+        .map(|m| MeshTree::build(AccelKind::for_mesh(m), m.clone(), &BuildOptions::default()))
+        .collect::<Result<Vec<_>, _>>()
+        .expect("the town builds");
+    let scene = Scene::new(trees, &town.instances).expect("the instances place existing meshes");
+    let tables = town.meshes.iter().map(wall_losses).collect();
     let materials = Materials::new(&scene, tables).expect("one loss per triangle");
 
     // The sources: the 64 street spots nearest to where the listeners start.
-    let spots = generate(RaySet::LineOfSight, &town, SceneKind::City, 4000, 31);
-    let start = spots[0].origin;
-    let mut near: Vec<Vec3> = spots[1..].iter().map(|r| r.origin).collect();
+    let mut rng = StdRng::seed_from_u64(31);
+    let start = town.street_point(&mut rng);
+    let mut near: Vec<Vec3> = (0..4000).map(|_| town.street_point(&mut rng)).collect();
     near.sort_by(|a, b| a.distance(start).total_cmp(&b.distance(start)));
     let sources: Vec<Vec3> = near[..SOURCES].to_vec();
     let mut segments = Vec::with_capacity(SOURCES * LISTENERS);

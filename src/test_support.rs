@@ -29,7 +29,7 @@ impl TestRng {
 
 /// The Stanford bunny from the workspace's `data/` folder.
 pub(crate) fn bunny() -> Mesh {
-    Mesh::from_obj_str(include_str!("../../data/stanford-bunny.obj")).expect("valid OBJ")
+    Mesh::from_obj_str(include_str!("../data/stanford-bunny.obj")).expect("valid OBJ")
 }
 
 /// `n` incoherent rays: origins in the mesh's bounds (grown by a quarter), random directions.

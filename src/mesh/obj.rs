@@ -473,7 +473,7 @@ mod tests {
 
     #[test]
     fn stanford_bunny() {
-        let (v, t) = ok(include_str!("../../../data/stanford-bunny.obj"));
+        let (v, t) = ok(include_str!("../../data/stanford-bunny.obj"));
         assert_eq!(v.len(), 35947);
         assert_eq!(t.len(), 69451);
         assert!(t.iter().flatten().all(|&i| (i as usize) < v.len()));

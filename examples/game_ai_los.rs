@@ -7,23 +7,26 @@
 //!   one `flush` answers them as a batch, answers are read by ticket; once request by request
 //!   (`submit`), once each system's list at once (`submit_all`).
 //!
-//! Every frame checks that the three agree on every sightline. The town is the built-in city
-//! cut into 16 x 16 tiles (256 static meshes) plus 500 crates as vehicles (rotated instances
-//! that move every frame: `set_transforms`, a refit of the top level).
+//! Every frame checks that the three agree on every sightline. The town (`support/town.rs`)
+//! is 16 x 16 blocks of box buildings, one mesh per block, plus 500 crates as vehicles
+//! (rotated instances that move every frame: `set_transforms`, a refit of the top level).
 //!
-//! Run: `cargo run --release -p raybatch-tools --example game_ai_los [agents] [frames]`
+//! Run: `cargo run --release --example game_ai_los [agents] [frames]`
 //! (`RAYON_NUM_THREADS=1` for one thread).
+
+#[path = "support/town.rs"]
+mod town;
 
 use std::time::Instant;
 
+use rand::rngs::StdRng;
+use rand::{RngExt, SeedableRng};
 use raybatch::glam::Vec3;
-use raybatch::scene::{InstanceDesc, Rigid, Scene};
+use raybatch::scene::{MeshTree, Rigid, Scene};
 use raybatch::users::{LosQueue, Ticket};
-use raybatch::{AccelKind, BatchQueries, Ray, RayQueries};
-use raybatch_tools::scenes::instanced::{World, props, split_into_tiles, yawed};
-use raybatch_tools::scenes::rng::SplitMix64;
-use raybatch_tools::scenes::{RaySet, SceneKind, city, generate};
+use raybatch::{AccelKind, BatchQueries, BuildOptions, Ray, RayQueries};
 use rayon::prelude::*;
+use town::{Town, yawed};
 
 /// Targets each agent checks per frame.
 const TARGETS: usize = 32;
@@ -36,24 +39,23 @@ fn main() {
         .map(|a| a.parse::<usize>().expect("a number"));
     let agents = args.next().unwrap_or(1000).max(1);
     let frames = args.next().unwrap_or(100);
-    let town = city(24).mesh;
-    let (world, first_vehicle) = town_world(&town);
-    let mut scene = world.build(AccelKind::Aabb).expect("the town builds");
+    let town = Town::new(16, VEHICLES, 11);
+    let first_vehicle = town.first_vehicle;
+    let mut scene = build_scene(&town);
     println!(
-        "town: {} instances ({} static tiles, {VEHICLES} vehicles), {} triangles",
+        "town: {} instances ({} static blocks, {VEHICLES} vehicles), {} triangles",
         scene.instances().len(),
         first_vehicle,
-        world.triangle_count()
+        scene.triangle_count()
     );
 
-    // Agents stand where the benchmark's city sightlines start (streets, eye height).
-    let starts = generate(RaySet::LineOfSight, &town, SceneKind::City, agents, 11);
-    let mut positions: Vec<Vec3> = starts.iter().map(|r| r.origin).collect();
+    // Agents stand in the streets, at eye height.
+    let mut rng = StdRng::seed_from_u64(12);
+    let mut positions: Vec<Vec3> = (0..agents).map(|_| town.street_point(&mut rng)).collect();
     let mut vehicles: Vec<(f32, Vec3)> = scene.instances()[first_vehicle..]
         .iter()
         .map(|i| (0.0, i.transform().translation()))
         .collect();
-    let mut rng = SplitMix64::new(12);
     let requests = agents * TARGETS;
     let mut queue = LosQueue::with_capacity(requests).expect("a frame's sightlines fit a queue");
     let mut segments = Vec::with_capacity(requests);
@@ -154,22 +156,15 @@ fn main() {
     println!("  all four gave the same answer on every sightline of every frame");
 }
 
-/// The city cut into tiles (static) followed by the vehicles; returns the world and the index
-/// of the first vehicle instance.
-fn town_world(town: &raybatch::Mesh) -> (World, usize) {
-    let mut world = split_into_tiles("town", town, 16);
-    let first_vehicle = world.instances.len();
-    let size = town.bounds().extent().x;
-    let cars = props(VEHICLES, size, 13);
-    let base = world.meshes.len();
-    world.meshes.extend(cars.meshes);
-    world
-        .instances
-        .extend(cars.instances.iter().map(|i| InstanceDesc {
-            mesh: base + i.mesh,
-            ..*i
-        }));
-    (world, first_vehicle)
+/// Every mesh with the tree the library picks for it.
+fn build_scene(town: &Town) -> Scene {
+    let trees = town
+        .meshes
+        .iter()
+        .map(|m| MeshTree::build(AccelKind::for_mesh(m), m.clone(), &BuildOptions::default()))
+        .collect::<Result<Vec<_>, _>>()
+        .expect("the town builds");
+    Scene::new(trees, &town.instances).expect("the instances place existing meshes")
 }
 
 /// One frame of motion: agents shuffle, vehicles drive and turn (one refit of the top level).
@@ -178,16 +173,16 @@ fn move_world(
     agents: &mut [Vec3],
     vehicles: &mut [(f32, Vec3)],
     first_vehicle: usize,
-    rng: &mut SplitMix64,
+    rng: &mut StdRng,
 ) {
     for p in agents.iter_mut() {
-        *p += Vec3::new(rng.range_f32(-0.3, 0.3), 0.0, rng.range_f32(-0.3, 0.3));
+        *p += Vec3::new(rng.random_range(-0.3..0.3), 0.0, rng.random_range(-0.3..0.3));
     }
     let moves: Vec<(usize, Rigid)> = vehicles
         .iter_mut()
         .enumerate()
         .map(|(k, (yaw, at))| {
-            *yaw += rng.range_f32(-0.05, 0.05);
+            *yaw += rng.random_range(-0.05..0.05);
             *at += Vec3::new(yaw.cos(), 0.0, yaw.sin()) * 0.5;
             (first_vehicle + k, yawed(*yaw, *at))
         })
