@@ -14,7 +14,10 @@ use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_m
 use glam::Vec3;
 use rand::rngs::StdRng;
 use rand::{RngExt, SeedableRng};
-use raybatch::{AccelKind, AnyAccel, BatchOptions, BuildOptions, Footprint, Hit, Mesh, Ray};
+use raybatch::{
+    AccelKind, AnyAccel, BatchOptions, BatchQueries, BuildOptions, Footprint, Hit, Mesh, Ray,
+    RayQueries,
+};
 
 const SIZES: [usize; 6] = [1 << 10, 1 << 12, 1 << 14, 1 << 16, 1 << 18, 1 << 20];
 
@@ -58,7 +61,10 @@ fn structures(mesh: &Mesh) -> Vec<AnyAccel> {
     kinds.dedup();
     kinds
         .into_iter()
-        .map(|k| k.build(mesh.clone(), &BuildOptions::default()).expect("bunny builds"))
+        .map(|k| {
+            k.build(mesh.clone(), &BuildOptions::default())
+                .expect("bunny builds")
+        })
         .collect()
 }
 
@@ -67,7 +73,9 @@ fn closest(c: &mut Criterion) {
     let all = incoherent(&mesh, SIZES[SIZES.len() - 1]);
     let options = BatchOptions::default().with_parallel(false);
     let mut group = c.benchmark_group("closest");
-    group.sample_size(10).warm_up_time(Duration::from_millis(500));
+    group
+        .sample_size(10)
+        .warm_up_time(Duration::from_millis(500));
     for tree in structures(&mesh) {
         for size in SIZES {
             let rays = &all[..size];
@@ -94,7 +102,9 @@ fn any_hit(c: &mut Criterion) {
     let all = sightlines(&mesh, SIZES[SIZES.len() - 1]);
     let options = BatchOptions::default().with_parallel(false);
     let mut group = c.benchmark_group("any");
-    group.sample_size(10).warm_up_time(Duration::from_millis(500));
+    group
+        .sample_size(10)
+        .warm_up_time(Duration::from_millis(500));
     for tree in structures(&mesh) {
         for size in SIZES {
             let rays = &all[..size];

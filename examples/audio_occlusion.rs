@@ -17,7 +17,7 @@ use std::time::Instant;
 use rand::SeedableRng;
 use rand::rngs::StdRng;
 use raybatch::glam::Vec3;
-use raybatch::scene::{MeshTree, Scene};
+use raybatch::scene::Scene;
 use raybatch::users::{Materials, Occlusion, occlusion, occlusion_batch};
 use raybatch::{AccelKind, BuildOptions, Mesh, Ray};
 use town::Town;
@@ -41,7 +41,7 @@ fn main() {
     let trees = town
         .meshes
         .iter()
-        .map(|m| MeshTree::build(AccelKind::for_mesh(m), m.clone(), &BuildOptions::default()))
+        .map(|m| AccelKind::for_mesh(m).build(m.clone(), &BuildOptions::default()))
         .collect::<Result<Vec<_>, _>>()
         .expect("the town builds");
     let scene = Scene::new(trees, &town.instances).expect("the instances place existing meshes");

@@ -22,7 +22,7 @@ use std::time::Instant;
 use rand::rngs::StdRng;
 use rand::{RngExt, SeedableRng};
 use raybatch::glam::Vec3;
-use raybatch::scene::{MeshTree, Rigid, Scene};
+use raybatch::scene::{Rigid, Scene};
 use raybatch::users::{LosQueue, Ticket};
 use raybatch::{AccelKind, BatchQueries, BuildOptions, Ray, RayQueries};
 use rayon::prelude::*;
@@ -161,7 +161,7 @@ fn build_scene(town: &Town) -> Scene {
     let trees = town
         .meshes
         .iter()
-        .map(|m| MeshTree::build(AccelKind::for_mesh(m), m.clone(), &BuildOptions::default()))
+        .map(|m| AccelKind::for_mesh(m).build(m.clone(), &BuildOptions::default()))
         .collect::<Result<Vec<_>, _>>()
         .expect("the town builds");
     Scene::new(trees, &town.instances).expect("the instances place existing meshes")
@@ -176,7 +176,11 @@ fn move_world(
     rng: &mut StdRng,
 ) {
     for p in agents.iter_mut() {
-        *p += Vec3::new(rng.random_range(-0.3..0.3), 0.0, rng.random_range(-0.3..0.3));
+        *p += Vec3::new(
+            rng.random_range(-0.3..0.3),
+            0.0,
+            rng.random_range(-0.3..0.3),
+        );
     }
     let moves: Vec<(usize, Rigid)> = vehicles
         .iter_mut()

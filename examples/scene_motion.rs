@@ -18,7 +18,7 @@ use std::time::Instant;
 use rand::rngs::StdRng;
 use rand::{RngExt, SeedableRng};
 use raybatch::glam::Vec3;
-use raybatch::scene::{InstanceDesc, MeshTree, Rigid, Scene};
+use raybatch::scene::{InstanceDesc, Rigid, Scene};
 use raybatch::{AccelKind, BatchQueries, BuildOptions, Hit, Ray};
 use town::{box_mesh, yawed};
 
@@ -34,7 +34,11 @@ fn main() {
     let mut rng = StdRng::seed_from_u64(8);
     let mut poses: Vec<(f32, Vec3)> = (0..count)
         .map(|_| {
-            let at = Vec3::new(rng.random_range(0.0..SIDE), 0.0, rng.random_range(0.0..SIDE));
+            let at = Vec3::new(
+                rng.random_range(0.0..SIDE),
+                0.0,
+                rng.random_range(0.0..SIDE),
+            );
             (rng.random_range(0.0..std::f32::consts::TAU), at)
         })
         .collect();
@@ -90,7 +94,8 @@ fn main() {
 /// A scene of one crate mesh placed at every pose.
 fn crates(poses: &[(f32, Vec3)]) -> Scene {
     let mesh = box_mesh(Vec3::new(-1.0, 0.0, -1.0), Vec3::new(1.0, 1.5, 1.0));
-    let tree = MeshTree::build(AccelKind::for_mesh(&mesh), mesh, &BuildOptions::default())
+    let tree = AccelKind::for_mesh(&mesh)
+        .build(mesh, &BuildOptions::default())
         .expect("a crate builds");
     let instances: Vec<InstanceDesc> = poses
         .iter()
@@ -117,7 +122,11 @@ fn step(poses: &mut [(f32, Vec3)], rng: &mut StdRng) -> Vec<(usize, Rigid)> {
         .enumerate()
         .map(|(i, (yaw, at))| {
             *yaw += rng.random_range(-0.1..0.1);
-            *at += Vec3::new(rng.random_range(-1.0..1.0), 0.0, rng.random_range(-1.0..1.0));
+            *at += Vec3::new(
+                rng.random_range(-1.0..1.0),
+                0.0,
+                rng.random_range(-1.0..1.0),
+            );
             (i, yawed(*yaw, *at))
         })
         .collect()

@@ -1,20 +1,25 @@
-//! Every structure of the crate by name, and one dynamic type that answers every query.
+//! The one list of structures: [`AccelKind`] names each kind, [`AnyAccel`] holds a structure of
+//! any kind behind one type.
 //!
-//! [`AccelKind`] is the one list of structures: the command-line tools, the benchmarks, the peer
-//! comparison and the tests iterate over [`AccelKind::ALL`], so a new structure is one variant
-//! here (with its name and its build) and shows up everywhere. [`AnyAccel`] wraps any
-//! [`Accel`] behind a trait object, so structures of different types can sit in one list and
-//! be chosen at run time; its methods are those of [`RayQueries`], [`BatchQueries`] and
-//! [`Footprint`], at the cost of one indirect call per query.
+//! The list below (`structures!`) is the only place that enumerates the kinds: it makes the
+//! kind enum, its names and summaries, the private enum of concrete trees behind [`AnyAccel`],
+//! and [`AnyAccel::run`], which runs code generic over the structure ([`KindTask`]) on the
+//! concrete tree. [`AccelKind::build`] then has one arm per kind. The command line, the
+//! benchmarks, the peers and the tests iterate over [`AccelKind::ALL`], and scenes place
+//! [`AnyAccel`]s, so a new structure is one line in the list plus one build arm; the
+//! compiler points at both.
 
+use std::any::Any;
 use std::sync::Arc;
 
-use crate::accel::{Accel, Footprint};
+use glam::Vec3;
+
+use crate::accel::{Accel, Footprint, RayStream, StreamLayout};
 use crate::batch::BatchOptions;
 use crate::bvh::{AabbTree, BuildError, BuildOptions, QuantizedAabbTree};
-use crate::geom::{Kernel, Ray};
+use crate::geom::{Aabb, Kernel, PreparedRay, Ray, TriangleTest};
 use crate::grid::{GridOptions, SpatialHash, UniformGrid};
-use crate::hit::Hit;
+use crate::hit::{Hit, Visitor};
 use crate::kdtree::KdTree;
 use crate::mesh::Mesh;
 use crate::permuted::Permuted;
@@ -22,147 +27,122 @@ use crate::query::{BatchError, BatchQueries, RayQueries};
 use crate::wide::{QuantizedWideTree, QuantizedWideTree8, WideTree, WideTree8};
 use crate::zbt::{HybridOptions, HybridTree, Rejected, ZbtError, ZbtOptions, ZeroByteTree};
 
-/// A kind of acceleration structure.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-pub enum AccelKind {
-    /// [`AabbTree`]: binary SAH tree, 32-byte nodes.
-    Aabb,
+/// What every structure of the list is: the bound [`KindTask::run`] gets its tree with.
+pub trait Structure: Accel + RayQueries + BatchQueries + Footprint + Send + 'static {}
+
+impl<A: Accel + RayQueries + BatchQueries + Footprint + Send + 'static> Structure for A {}
+
+/// Code generic over the structure, run on the concrete tree inside an [`AnyAccel`] by
+/// [`AnyAccel::run`] (one `match` per call, then the tree's own code).
+pub trait KindTask {
+    /// What the task returns.
+    type Output;
+    /// Runs the task on `tree`, of kind `kind`.
+    fn run<A: Structure>(self, kind: AccelKind, tree: &A) -> Self::Output;
+}
+
+macro_rules! structures {
+    ($($(#[$doc:meta])* $kind:ident($tree:ty) = $name:literal: $summary:literal;)+) => {
+        /// A kind of acceleration structure (every kind answers every query exactly alike; the
+        /// README's table says which to pick).
+        #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+        pub enum AccelKind {
+            $($(#[$doc])* $kind,)+
+        }
+
+        impl AccelKind {
+            /// Every kind, in the list's order.
+            pub const ALL: [AccelKind; [$(AccelKind::$kind),+].len()] = [$(AccelKind::$kind),+];
+
+            /// The name used on the command line and in tables.
+            pub fn name(self) -> &'static str {
+                match self {
+                    $(AccelKind::$kind => $name,)+
+                }
+            }
+
+            /// One line on what the structure is, for help texts.
+            pub fn summary(self) -> &'static str {
+                match self {
+                    $(AccelKind::$kind => $summary,)+
+                }
+            }
+        }
+
+        /// The concrete trees.
+        #[derive(Debug)]
+        enum Tree {
+            $($kind($tree),)+
+        }
+
+        /// Runs `$body` with `$t` bound to the concrete tree of `$tree` (a `&Tree`) and
+        /// `$kind` to its kind.
+        macro_rules! each_tree {
+            ($tree_ref:expr, ($kind_var:ident, $t:ident) => $body:expr) => {
+                match $tree_ref {
+                    $(Tree::$kind($t) => {
+                        let $kind_var = AccelKind::$kind;
+                        $body
+                    })+
+                }
+            };
+        }
+    };
+}
+
+structures! {
+    /// [`AabbTree`]: binary SAH tree, 32-byte nodes; the only kind a scene can refit.
+    Aabb(AabbTree) = "aabb": "binary SAH tree, 32-byte nodes";
     /// [`QuantizedAabbTree`]: the same tree with 16-byte quantized nodes.
-    Quantized,
+    Quantized(QuantizedAabbTree) = "quantized": "binary SAH tree, 16-byte quantized nodes";
     /// [`WideTree`]: the same tree collapsed to 4 children per node, SIMD box tests.
-    Bvh4,
+    Bvh4(WideTree) = "bvh4": "4-wide tree collapsed from the SAH tree, SIMD box tests";
     /// [`WideTree8`]: the same tree collapsed to 8 children per node (AVX2 box tests where
-    /// the CPU has them); its batches share nodes as the 4-wide tree's do. The default.
-    Bvh8,
+    /// the CPU has them). The default ([`AccelKind::DEFAULT`]).
+    Bvh8(WideTree8) = "bvh8": "8-wide tree collapsed from the SAH tree, SIMD box tests";
     /// [`QuantizedWideTree`]: the 4-wide tree with 8-bit child boxes, one 64-byte line a node.
-    Bvh4q,
+    Bvh4q(QuantizedWideTree) = "bvh4q": "4-wide tree with 8-bit child boxes, 64-byte nodes";
     /// [`QuantizedWideTree8`]: the 8-wide tree with 8-bit child boxes, two 64-byte lines a
-    /// node.
-    Bvh8q,
-    /// [`QuantizedWideTree8`] with leaf blocks ([`crate::LeafCopy::Blocks`]) by default on
-    /// large trees (over 8 MiB with the mesh): each leaf one read, as Embree's are. The
-    /// fastest per ray beyond the caches, where [`AccelKind::for_mesh`] picks it; 36-38 B/tri
-    /// there, within the full binary tree's 38.5 (the index copy where blocks would take
-    /// more), where `bvh8q` keeps to the quantized tree's 20-21.
-    Bvh8qb,
+    /// node; beyond the caches its leaves are blocks read in one trip to memory
+    /// ([`crate::LeafCopy::Blocks`]), and [`AccelKind::for_mesh`] picks it there.
+    Bvh8q(QuantizedWideTree8) = "bvh8q": "8-wide tree with 8-bit child boxes, 128-byte nodes";
     /// [`ZeroByteTree`]: no memory beside the mesh, boxes recomputed, per-thread box cache.
-    Zbt,
-    /// [`ZeroByteTree`] with the box cache off: every box recomputed at every visit.
-    ZbtNoCache,
+    Zbt(Permuted<ZeroByteTree>) = "zbt": "zero-byte tree: no memory beside the mesh, box cache";
     /// [`HybridTree`]: stored boxes down to chunks of 32 triangles, zero-byte trees below.
-    Hybrid,
+    Hybrid(Permuted<HybridTree>) = "hybrid": "AABB tree over zero-byte trees of 32-triangle chunks";
     /// [`UniformGrid`]: cells over the bounds walked by an exact 3D-DDA, mailboxed.
-    Grid,
+    Grid(UniformGrid) = "grid": "uniform grid, exact 3D-DDA walk, mailboxes";
     /// [`KdTree`]: SAH kd-tree, 8-byte nodes, front-to-back walk, mailboxed.
-    Kd,
+    Kd(KdTree) = "kd": "SAH kd-tree, 8-byte nodes, front-to-back walk, mailboxes";
     /// [`SpatialHash`]: the grid's cells and walk, only non-empty cells stored, hashed.
-    Hash,
+    Hash(SpatialHash) = "hash": "spatial hash: the grid's walk, only non-empty cells stored";
 }
 
 impl AccelKind {
-    /// Every kind.
-    pub const ALL: [AccelKind; 13] = [
-        AccelKind::Aabb,
-        AccelKind::Quantized,
-        AccelKind::Bvh4,
-        AccelKind::Bvh8,
-        AccelKind::Bvh4q,
-        AccelKind::Bvh8q,
-        AccelKind::Bvh8qb,
-        AccelKind::Zbt,
-        AccelKind::ZbtNoCache,
-        AccelKind::Hybrid,
-        AccelKind::Grid,
-        AccelKind::Kd,
-        AccelKind::Hash,
-    ];
-
-    /// The fastest exact structure on our measurements, all queries together: the 8-wide
-    /// tree. Against the 4-wide tree (`peers --race`, 1M rays, one thread; fandisk, teapot,
-    /// bunny, city): single rays 1.13-1.29x as fast (closest hit, incoherent), calls of 4,096
-    /// rays 0.97-1.15x, whole batches of closest hits 0.95-1.04x; but batched any hit
-    /// 0.88-0.98x and batched camera rays 0.87-0.92x (more box tests per ray in a stream).
-    /// Memory 28.4-35.6 B/tri against 26.6-28.4. The quantized 4-wide tree takes 11.3-12.2
-    /// B/tri for about 0.8x the 4-wide tree's speed per ray and 0.9x batched. The quantized
-    /// 8-wide tree ([`AccelKind::Bvh8q`]) is 0.81-0.90x this one per ray on meshes that stay
-    /// in the caches, at 12.2-15.8 B/tri; with leaf blocks ([`AccelKind::Bvh8qb`]) it is the
-    /// faster one beyond the caches: [`AccelKind::for_mesh`] picks by size.
+    /// The fastest exact structure on meshes that stay in the caches, all queries together:
+    /// the 8-wide tree (figures in `docs/benchmarks.md`).
     pub const DEFAULT: AccelKind = AccelKind::Bvh8;
 
     /// The fastest exact structure for `mesh` per ray: [`AccelKind::DEFAULT`], unless the
     /// smallest wide tree and the mesh together are beyond the caches (over 16 MiB, from
     /// about 550k triangles), where each step of a walk waits on memory: there the quantized
-    /// 8-wide tree with leaf blocks ([`AccelKind::Bvh8qb`]), whose leaves are read in one trip
-    /// to memory instead of two, at 36-38 B/tri, under the full binary tree's 38.5 (or with
-    /// the index copy, 20-21 B/tri, where blocks would take more). Against the 8-wide tree on
-    /// two 1M-triangle meshes, one thread, 1M incoherent rays: 1.33-1.40x per ray alternated
-    /// in one process (best of 3), 1.04-1.28x in four races with Embree (`peers --race`, where
-    /// it reached 0.83-0.91 of Embree per ray).
+    /// 8-wide tree, whose leaf blocks are read in one trip to memory instead of two.
     pub fn for_mesh(mesh: &Mesh) -> AccelKind {
         if crate::wide::mesh_beyond_caches(mesh) {
-            AccelKind::Bvh8qb
+            AccelKind::Bvh8q
         } else {
             AccelKind::DEFAULT
         }
     }
 
-    /// The name used on the command line and in tables.
-    pub fn name(self) -> &'static str {
-        match self {
-            AccelKind::Aabb => "aabb",
-            AccelKind::Quantized => "quantized",
-            AccelKind::Bvh4 => "bvh4",
-            AccelKind::Bvh8 => "bvh8",
-            AccelKind::Bvh4q => "bvh4q",
-            AccelKind::Bvh8q => "bvh8q",
-            AccelKind::Bvh8qb => "bvh8qb",
-            AccelKind::Zbt => "zbt",
-            AccelKind::ZbtNoCache => "zbt-nocache",
-            AccelKind::Hybrid => "hybrid",
-            AccelKind::Grid => "grid",
-            AccelKind::Kd => "kd",
-            AccelKind::Hash => "hash",
-        }
-    }
-
-    /// One line on what the structure is, for help texts.
-    pub fn summary(self) -> &'static str {
-        match self {
-            AccelKind::Aabb => "binary SAH tree, 32-byte nodes",
-            AccelKind::Quantized => "binary SAH tree, 16-byte quantized nodes",
-            AccelKind::Bvh4 => "4-wide tree collapsed from the SAH tree, SIMD box tests",
-            AccelKind::Bvh8 => "8-wide tree collapsed from the SAH tree, SIMD box tests",
-            AccelKind::Bvh4q => "4-wide tree with 8-bit child boxes, 64-byte nodes",
-            AccelKind::Bvh8q => "8-wide tree with 8-bit child boxes, 128-byte nodes",
-            AccelKind::Bvh8qb => "bvh8q with leaf blocks on large trees: one read a leaf",
-            AccelKind::Zbt => "zero-byte tree: no memory beside the mesh, box cache",
-            AccelKind::ZbtNoCache => "zero-byte tree without the box cache",
-            AccelKind::Hybrid => "AABB tree over zero-byte trees of 32-triangle chunks",
-            AccelKind::Grid => "uniform grid, exact 3D-DDA walk, mailboxes",
-            AccelKind::Kd => "SAH kd-tree, 8-byte nodes, front-to-back walk, mailboxes",
-            AccelKind::Hash => "spatial hash: the grid's walk, only non-empty cells stored",
-        }
-    }
-
     /// Whether the structure follows [`BuildOptions::ordering`] (the binary trees' child-order
     /// byte); the wide trees order each node's children per ray octant from their own boxes
-    /// instead, so building them with another ordering gives the same structure.
+    /// instead, and the grids and kd-tree walk space front to back.
     pub fn uses_child_ordering(self) -> bool {
-        match self {
-            AccelKind::Aabb
-            | AccelKind::Quantized
-            | AccelKind::Zbt
-            | AccelKind::ZbtNoCache
-            | AccelKind::Hybrid => true,
-            AccelKind::Bvh4
-            | AccelKind::Bvh8
-            | AccelKind::Bvh4q
-            | AccelKind::Bvh8q
-            | AccelKind::Bvh8qb
-            | AccelKind::Grid
-            | AccelKind::Kd
-            | AccelKind::Hash => false,
-        }
+        matches!(
+            self,
+            AccelKind::Aabb | AccelKind::Quantized | AccelKind::Zbt | AccelKind::Hybrid
+        )
     }
 
     /// Whether the structure is a wide tree, whose leaves follow
@@ -170,11 +150,7 @@ impl AccelKind {
     pub fn is_wide(self) -> bool {
         matches!(
             self,
-            AccelKind::Bvh4
-                | AccelKind::Bvh8
-                | AccelKind::Bvh4q
-                | AccelKind::Bvh8q
-                | AccelKind::Bvh8qb
+            AccelKind::Bvh4 | AccelKind::Bvh8 | AccelKind::Bvh4q | AccelKind::Bvh8q
         )
     }
 
@@ -185,54 +161,53 @@ impl AccelKind {
 
     /// Builds the structure over `mesh`. Every structure answers in `mesh`'s triangle ids:
     /// the zero-byte trees, which reorder the triangles, are wrapped in [`Permuted`] (their
-    /// [`Footprint::id_map_bytes`]). They read the options as [`ZbtOptions::from`] does.
+    /// [`Footprint::id_map_bytes`]) and read the options as [`ZbtOptions::from`] does; the grid
+    /// and the hash take their default cells, the kd-tree only the leaf size.
     pub fn build(
         self,
         mesh: impl Into<Arc<Mesh>>,
         options: &BuildOptions,
     ) -> Result<AnyAccel, BuildError> {
-        let mesh = mesh.into();
-        options.validate()?;
-        Ok(match self {
-            AccelKind::Aabb => AnyAccel::new(<AabbTree>::build(mesh, options)?),
-            AccelKind::Quantized => AnyAccel::new(QuantizedAabbTree::build(mesh, options)?),
-            AccelKind::Bvh4 => AnyAccel::new(WideTree::build(mesh, options)?),
-            AccelKind::Bvh8 => AnyAccel::new(WideTree8::build(mesh, options)?),
-            AccelKind::Bvh4q => AnyAccel::new(QuantizedWideTree::build(mesh, options)?),
-            AccelKind::Bvh8q => AnyAccel::new(QuantizedWideTree8::build(mesh, options)?),
-            AccelKind::Bvh8qb => {
-                AnyAccel::new(QuantizedWideTree8::build_with_blocks(mesh, options)?)
-            }
-            AccelKind::Zbt | AccelKind::ZbtNoCache => {
-                let zbt = ZbtOptions {
-                    box_cache: self == AccelKind::Zbt,
-                    ..ZbtOptions::from(options)
-                };
-                let (tree, permutation) =
-                    ZeroByteTree::build(Arc::unwrap_or_clone(mesh), &zbt).map_err(too_large)?;
-                AnyAccel::new(Permuted::new(tree, permutation))
-            }
-            AccelKind::Hybrid => {
-                let hybrid = HybridOptions {
-                    zbt: ZbtOptions::from(options),
-                    ..HybridOptions::default()
-                };
-                let (tree, permutation) =
-                    HybridTree::build(Arc::unwrap_or_clone(mesh), &hybrid).map_err(too_large)?;
-                AnyAccel::new(Permuted::new(tree, permutation))
-            }
-            AccelKind::Grid => AnyAccel::new(UniformGrid::build(mesh, &GridOptions::default())?),
-            AccelKind::Kd => AnyAccel::new(KdTree::build(mesh, options.max_leaf_size)?),
-            AccelKind::Hash => {
-                AnyAccel::new(SpatialHash::build(mesh, &SpatialHash::default_options())?)
-            }
-        })
+        build(self, mesh.into(), options)
     }
 }
 
+/// [`AccelKind::build`], compiled once (not per caller's mesh type).
+fn build(kind: AccelKind, mesh: Arc<Mesh>, options: &BuildOptions) -> Result<AnyAccel, BuildError> {
+    options.validate()?;
+    let bounds = mesh.bounds();
+    let tree = match kind {
+        AccelKind::Aabb => Tree::Aabb(AabbTree::build(mesh, options)?),
+        AccelKind::Quantized => Tree::Quantized(QuantizedAabbTree::build(mesh, options)?),
+        AccelKind::Bvh4 => Tree::Bvh4(WideTree::build(mesh, options)?),
+        AccelKind::Bvh8 => Tree::Bvh8(WideTree8::build(mesh, options)?),
+        AccelKind::Bvh4q => Tree::Bvh4q(QuantizedWideTree::build(mesh, options)?),
+        AccelKind::Bvh8q => Tree::Bvh8q(QuantizedWideTree8::build(mesh, options)?),
+        AccelKind::Zbt => {
+            let zbt = ZbtOptions::from(options);
+            let (tree, order) =
+                ZeroByteTree::build(Arc::unwrap_or_clone(mesh), &zbt).map_err(too_large)?;
+            Tree::Zbt(Permuted::new(tree, order))
+        }
+        AccelKind::Hybrid => {
+            let hybrid = HybridOptions {
+                zbt: ZbtOptions::from(options),
+                ..HybridOptions::default()
+            };
+            let (tree, order) =
+                HybridTree::build(Arc::unwrap_or_clone(mesh), &hybrid).map_err(too_large)?;
+            Tree::Hybrid(Permuted::new(tree, order))
+        }
+        AccelKind::Grid => Tree::Grid(UniformGrid::build(mesh, &GridOptions::default())?),
+        AccelKind::Kd => Tree::Kd(KdTree::build(mesh, options.max_leaf_size)?),
+        AccelKind::Hash => Tree::Hash(SpatialHash::build(mesh, &SpatialHash::default_options())?),
+    };
+    Ok(AnyAccel { tree, bounds })
+}
+
 /// A zero-byte build error as the catalog's [`BuildError`] (only the size limits can occur:
-/// the catalog passes valid leaf and chunk sizes).
-pub(crate) fn too_large(rejected: Rejected) -> BuildError {
+/// the catalog validated the leaf size and passes the default chunk size).
+fn too_large(rejected: Rejected) -> BuildError {
     let (needed, max, format) = match rejected.error {
         ZbtError::TooManyTriangles { count, max } => (count, max, "zbt (triangles)"),
         ZbtError::TooManyVertices { count, max } => (count, max, "zbt (vertices)"),
@@ -247,199 +222,168 @@ pub(crate) fn too_large(rejected: Rejected) -> BuildError {
     }
 }
 
-/// Any structure, behind one type (see the module docs).
+/// A structure of any kind, chosen at run time ([`AccelKind::build`]). It answers every query
+/// of [`RayQueries`] and [`BatchQueries`] with its tree's own engines (one `match` per call),
+/// and scenes place it under their instances.
+#[derive(Debug)]
 pub struct AnyAccel {
-    inner: Box<dyn Erased>,
+    tree: Tree,
+    /// The mesh's box: every triangle the tree can report lies in it.
+    bounds: Aabb,
 }
 
 impl AnyAccel {
-    /// Wraps `accel`.
-    pub fn new<A: Accel + Footprint + Send + 'static>(accel: A) -> Self {
-        Self {
-            inner: Box::new(accel),
+    /// A box holding every triangle the structure may report (empty if none).
+    pub fn mesh_bounds(&self) -> Aabb {
+        self.bounds
+    }
+
+    /// Moves the mesh's vertices to `vertices` (same count, same triangles) and refits the
+    /// tree's boxes bottom-up, without a rebuild. Only the binary AABB tree
+    /// ([`AccelKind::Aabb`]) supports it (see `scene::refit`); on any error the tree is left
+    /// as it was.
+    pub fn refit(&mut self, vertices: Vec<Vec3>) -> Result<(), crate::scene::SceneError> {
+        match &mut self.tree {
+            Tree::Aabb(tree) => {
+                crate::scene::refit::refit(tree, vertices)?;
+                self.bounds = tree.mesh().bounds();
+                Ok(())
+            }
+            _ => Err(crate::scene::SceneError::NotRefittable {
+                kind: self.kind().name(),
+            }),
         }
     }
+}
 
-    /// [`RayQueries::cast_ray`].
-    pub fn cast_ray(&self, ray: &Ray) -> Option<Hit> {
-        self.inner.cast_ray_with(ray, Kernel::Watertight)
+/// Each kind's per-thread scratch, made on first use, by kind (see [`Accel::Scratch`]).
+#[derive(Default)]
+pub struct AnyScratch {
+    slots: Vec<Option<Box<dyn Any + Send>>>,
+}
+
+impl AnyScratch {
+    /// The scratch of kind `kind`, of type `S`.
+    #[inline]
+    fn get<S: Default + Send + 'static>(&mut self, kind: AccelKind) -> &mut S {
+        let index = kind as usize;
+        if self.slots.len() <= index {
+            self.slots.resize_with(AccelKind::ALL.len(), || None);
+        }
+        self.slots[index]
+            .get_or_insert_with(|| Box::new(S::default()))
+            .downcast_mut::<S>()
+            .unwrap_or_else(|| unreachable!("a kind's slot holds its tree's scratch type"))
+    }
+}
+
+impl AnyAccel {
+    /// Runs `task` on the concrete tree.
+    #[inline]
+    pub fn run<T: KindTask>(&self, task: T) -> T::Output {
+        each_tree!(&self.tree, (kind, tree) => task.run(kind, tree))
     }
 
-    /// [`RayQueries::cast_ray_with`].
-    pub fn cast_ray_with(&self, ray: &Ray, kernel: Kernel) -> Option<Hit> {
-        self.inner.cast_ray_with(ray, kernel)
+    /// The structure's kind.
+    pub fn kind(&self) -> AccelKind {
+        each_tree!(&self.tree, (kind, _tree) => kind)
+    }
+}
+
+/// Under a scene's instances: each instance visit runs its tree's own walk.
+impl Accel for AnyAccel {
+    type Scratch = AnyScratch;
+    // Scenes hand their meshes' trees streams in lanes (they partition at the top level).
+    const STREAM_LAYOUT: StreamLayout = StreamLayout::Lanes;
+
+    #[inline]
+    fn trace<K: TriangleTest, V: Visitor>(
+        &self,
+        ray: &PreparedRay,
+        id: u32,
+        scratch: &mut AnyScratch,
+        visitor: &mut V,
+    ) -> f32 {
+        each_tree!(&self.tree, (kind, tree) => {
+            tree.trace::<K, V>(ray, id, scratch.get(kind), visitor)
+        })
     }
 
-    /// [`RayQueries::cast_ray_visits`].
-    pub fn cast_ray_visits(&self, ray: &Ray, kernel: Kernel) -> (Option<Hit>, u32) {
-        self.inner.cast_ray_visits(ray, kernel)
+    fn trace_stream<K: TriangleTest, V: Visitor>(
+        &self,
+        stream: &mut RayStream<'_>,
+        scratch: &mut AnyScratch,
+        visitor: &mut V,
+    ) {
+        each_tree!(&self.tree, (kind, tree) => {
+            tree.trace_stream::<K, V>(stream, scratch.get(kind), visitor)
+        })
     }
+}
 
-    /// [`RayQueries::occluded`].
-    pub fn occluded(&self, ray: &Ray) -> bool {
-        self.inner.occluded_with(ray, Kernel::Watertight)
+/// Each query goes to the tree's own (one `match` per call).
+impl RayQueries for AnyAccel {
+    fn cast_ray_with(&self, ray: &Ray, kernel: Kernel) -> Option<Hit> {
+        each_tree!(&self.tree, (_kind, tree) => tree.cast_ray_with(ray, kernel))
     }
-
-    /// [`RayQueries::occluded_with`].
-    pub fn occluded_with(&self, ray: &Ray, kernel: Kernel) -> bool {
-        self.inner.occluded_with(ray, kernel)
+    fn cast_ray_visits(&self, ray: &Ray, kernel: Kernel) -> (Option<Hit>, u32) {
+        each_tree!(&self.tree, (_kind, tree) => tree.cast_ray_visits(ray, kernel))
     }
-
-    /// [`RayQueries::for_each_hit`].
-    pub fn for_each_hit(&self, ray: &Ray, mut f: impl FnMut(Hit)) {
-        self.inner
-            .for_each_hit_with(ray, Kernel::Watertight, &mut f)
+    fn occluded_with(&self, ray: &Ray, kernel: Kernel) -> bool {
+        each_tree!(&self.tree, (_kind, tree) => tree.occluded_with(ray, kernel))
     }
-
-    /// [`RayQueries::for_each_hit_with`].
-    pub fn for_each_hit_with(&self, ray: &Ray, kernel: Kernel, mut f: impl FnMut(Hit)) {
-        self.inner.for_each_hit_with(ray, kernel, &mut f)
+    fn for_each_hit_with(&self, ray: &Ray, kernel: Kernel, f: &mut dyn FnMut(Hit)) {
+        each_tree!(&self.tree, (_kind, tree) => tree.for_each_hit_with(ray, kernel, f))
     }
-
-    /// [`RayQueries::all_hits`].
-    pub fn all_hits(&self, ray: &Ray) -> Vec<Hit> {
-        self.inner.all_hits(ray)
+    fn visit<V: Visitor>(&self, ray: &Ray, kernel: Kernel, visitor: &mut V)
+    where
+        Self: Sized,
+    {
+        each_tree!(&self.tree, (_kind, tree) => tree.visit(ray, kernel, visitor))
     }
+}
 
-    /// [`BatchQueries::cast_rays`].
-    pub fn cast_rays(&self, rays: &[Ray], hits: &mut [Option<Hit>]) -> Result<(), BatchError> {
-        self.cast_rays_with(rays, hits, &BatchOptions::default())
-    }
-
-    /// [`BatchQueries::cast_rays_with`].
-    pub fn cast_rays_with(
+impl BatchQueries for AnyAccel {
+    fn cast_rays_with(
         &self,
         rays: &[Ray],
         hits: &mut [Option<Hit>],
         options: &BatchOptions,
     ) -> Result<(), BatchError> {
-        self.inner.cast_rays_with(rays, hits, options)
+        each_tree!(&self.tree, (_kind, tree) => tree.cast_rays_with(rays, hits, options))
     }
-
-    /// [`BatchQueries::occluded_batch`].
-    pub fn occluded_batch(&self, rays: &[Ray], occluded: &mut [bool]) -> Result<(), BatchError> {
-        self.occluded_batch_with(rays, occluded, &BatchOptions::default())
-    }
-
-    /// [`BatchQueries::occluded_batch_with`].
-    pub fn occluded_batch_with(
+    fn occluded_batch_with(
         &self,
         rays: &[Ray],
         occluded: &mut [bool],
         options: &BatchOptions,
     ) -> Result<(), BatchError> {
-        self.inner.occluded_batch_with(rays, occluded, options)
+        each_tree!(&self.tree, (_kind, tree) => tree.occluded_batch_with(rays, occluded, options))
     }
-
-    /// [`BatchQueries::for_each_hit_batch`].
-    pub fn for_each_hit_batch(&self, rays: &[Ray], f: impl Fn(usize, Hit) + Sync) {
-        self.inner
-            .for_each_hit_batch_with(rays, &BatchOptions::default(), &f)
-    }
-
-    /// [`BatchQueries::for_each_hit_batch_with`].
-    pub fn for_each_hit_batch_with(
+    fn for_each_hit_batch_with(
         &self,
         rays: &[Ray],
         options: &BatchOptions,
-        f: impl Fn(usize, Hit) + Sync,
+        f: &(dyn Fn(usize, Hit) + Sync),
     ) {
-        self.inner.for_each_hit_batch_with(rays, options, &f)
+        each_tree!(&self.tree, (_kind, tree) => tree.for_each_hit_batch_with(rays, options, f))
     }
 }
 
 impl Footprint for AnyAccel {
     fn name(&self) -> &'static str {
-        self.inner.name()
+        self.kind().name()
     }
     fn triangle_count(&self) -> usize {
-        self.inner.triangle_count()
+        each_tree!(&self.tree, (_kind, tree) => tree.triangle_count())
     }
     fn node_count(&self) -> usize {
-        self.inner.node_count()
+        each_tree!(&self.tree, (_kind, tree) => tree.node_count())
     }
     fn heap_bytes(&self) -> usize {
-        self.inner.heap_bytes()
+        each_tree!(&self.tree, (_kind, tree) => tree.heap_bytes())
     }
     fn id_map_bytes(&self) -> usize {
-        self.inner.id_map_bytes()
-    }
-}
-
-impl std::fmt::Debug for AnyAccel {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.debug_struct("AnyAccel")
-            .field("name", &self.name())
-            .field("nodes", &self.node_count())
-            .finish()
-    }
-}
-
-/// The queries without generic parameters, so that they can be called through `dyn`.
-trait Erased: Footprint + Send + Sync {
-    fn cast_ray_with(&self, ray: &Ray, kernel: Kernel) -> Option<Hit>;
-    fn cast_ray_visits(&self, ray: &Ray, kernel: Kernel) -> (Option<Hit>, u32);
-    fn occluded_with(&self, ray: &Ray, kernel: Kernel) -> bool;
-    fn for_each_hit_with(&self, ray: &Ray, kernel: Kernel, f: &mut dyn FnMut(Hit));
-    fn all_hits(&self, ray: &Ray) -> Vec<Hit>;
-    fn cast_rays_with(
-        &self,
-        rays: &[Ray],
-        hits: &mut [Option<Hit>],
-        options: &BatchOptions,
-    ) -> Result<(), BatchError>;
-    fn occluded_batch_with(
-        &self,
-        rays: &[Ray],
-        occluded: &mut [bool],
-        options: &BatchOptions,
-    ) -> Result<(), BatchError>;
-    fn for_each_hit_batch_with(
-        &self,
-        rays: &[Ray],
-        options: &BatchOptions,
-        f: &(dyn Fn(usize, Hit) + Sync),
-    );
-}
-
-impl<A: Accel + Footprint + Send> Erased for A {
-    fn cast_ray_with(&self, ray: &Ray, kernel: Kernel) -> Option<Hit> {
-        RayQueries::cast_ray_with(self, ray, kernel)
-    }
-    fn cast_ray_visits(&self, ray: &Ray, kernel: Kernel) -> (Option<Hit>, u32) {
-        RayQueries::cast_ray_visits(self, ray, kernel)
-    }
-    fn occluded_with(&self, ray: &Ray, kernel: Kernel) -> bool {
-        RayQueries::occluded_with(self, ray, kernel)
-    }
-    fn for_each_hit_with(&self, ray: &Ray, kernel: Kernel, f: &mut dyn FnMut(Hit)) {
-        RayQueries::for_each_hit_with(self, ray, kernel, f)
-    }
-    fn all_hits(&self, ray: &Ray) -> Vec<Hit> {
-        RayQueries::all_hits(self, ray)
-    }
-    fn cast_rays_with(
-        &self,
-        rays: &[Ray],
-        hits: &mut [Option<Hit>],
-        options: &BatchOptions,
-    ) -> Result<(), BatchError> {
-        BatchQueries::cast_rays_with(self, rays, hits, options)
-    }
-    fn occluded_batch_with(
-        &self,
-        rays: &[Ray],
-        occluded: &mut [bool],
-        options: &BatchOptions,
-    ) -> Result<(), BatchError> {
-        BatchQueries::occluded_batch_with(self, rays, occluded, options)
-    }
-    fn for_each_hit_batch_with(
-        &self,
-        rays: &[Ray],
-        options: &BatchOptions,
-        f: &(dyn Fn(usize, Hit) + Sync),
-    ) {
-        BatchQueries::for_each_hit_batch_with(self, rays, options, f)
+        each_tree!(&self.tree, (_kind, tree) => tree.id_map_bytes())
     }
 }

@@ -173,7 +173,7 @@ impl Visitor for Any<'_> {
 }
 
 /// Reports every hit of ray `ray` to `f(offset + positions[ray], hit)`.
-pub struct Every<'a, F> {
+pub struct Every<'a, F: ?Sized> {
     /// Added to the ray's position (the position of this chunk in the caller's batch).
     pub offset: usize,
     /// The position in the chunk of each ray id the walk reports (a batch's streams number
@@ -183,7 +183,7 @@ pub struct Every<'a, F> {
     pub f: &'a F,
 }
 
-impl<F: Fn(usize, Hit)> Visitor for Every<'_, F> {
+impl<F: Fn(usize, Hit) + ?Sized> Visitor for Every<'_, F> {
     #[inline(always)]
     fn visit(&mut self, ray: u32, hit: Hit, _: &mut f32) {
         (self.f)(self.offset + self.positions[ray as usize] as usize, hit);

@@ -68,7 +68,7 @@ pub use batch::{BatchOptions, BatchOrdering, Interleave, PartitionKernel};
 pub use bvh::{
     AabbTree, BuildError, BuildOptions, Bvh, ChildOrdering, LeafCopy, QuantizedAabbTree,
 };
-pub use catalog::{AccelKind, AnyAccel};
+pub use catalog::{AccelKind, AnyAccel, KindTask, Structure};
 pub use geom::{Aabb, Kernel, Ray, RayError};
 pub use glam;
 pub use grid::{GridOptions, SpatialHash, UniformGrid};
@@ -76,7 +76,7 @@ pub use hit::{Hit, Visitor};
 pub use kdtree::KdTree;
 pub use mesh::{Mesh, MeshError};
 pub use query::{BatchError, BatchQueries, RayQueries};
-pub use scene::{InstanceDesc, MeshTree, Rigid, Scene, SceneError, SceneHit};
+pub use scene::{InstanceDesc, Rigid, Scene, SceneError, SceneHit};
 pub use wide::{QuantizedWideTree, QuantizedWideTree8, WideTree, WideTree8};
 pub use workspace::{StructureId, Workspace};
 pub use zbt::{HybridTree, ZeroByteTree};

@@ -46,7 +46,10 @@ impl Town {
             .collect();
         let first_vehicle = instances.len();
         let crate_mesh = meshes.len();
-        meshes.push(box_mesh(Vec3::new(-2.0, 0.0, -1.0), Vec3::new(2.0, 1.6, 1.0)));
+        meshes.push(box_mesh(
+            Vec3::new(-2.0, 0.0, -1.0),
+            Vec3::new(2.0, 1.6, 1.0),
+        ));
         let mut town = Town {
             meshes,
             instances: Vec::new(),

@@ -10,7 +10,9 @@ use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use raybatch::glam::Vec3A;
-use raybatch::{AccelKind, BatchOptions, BuildOptions, Footprint, Hit, Mesh, Ray};
+use raybatch::{
+    AccelKind, BatchOptions, BatchQueries, BuildOptions, Footprint, Hit, Mesh, Ray, RayQueries,
+};
 
 use crate::embree_ffi as rtc;
 

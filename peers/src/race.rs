@@ -16,7 +16,10 @@ use std::hint::black_box;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
-use raybatch::{AccelKind, AnyAccel, BatchOptions, BatchOrdering, BuildOptions, Hit, Mesh, Ray};
+use raybatch::{
+    AccelKind, AnyAccel, BatchOptions, BatchOrdering, BatchQueries, BuildOptions, Hit, Mesh, Ray,
+    RayQueries,
+};
 
 use crate::embree_ffi as rtc;
 use crate::engines::{EMBREE_QUALITY, FRAME_CALL, raybatch_batched_engine, raybatch_engine};
@@ -56,7 +59,6 @@ pub fn race(
     let bvh4 = (AccelKind::Bvh4, build(AccelKind::Bvh4)?);
     let bvh8 = (AccelKind::Bvh8, build(AccelKind::Bvh8)?);
     let bvh8q = (AccelKind::Bvh8q, build(AccelKind::Bvh8q)?);
-    let bvh8qb = (AccelKind::Bvh8qb, build(AccelKind::Bvh8qb)?);
     let scene = rtc::Scene::triangles(
         device,
         mesh.vertices(),
@@ -80,10 +82,10 @@ pub fn race(
             }
         }),
     }];
-    for tree in [&bvh4, &bvh8, &bvh8q, &bvh8qb] {
+    for tree in [&bvh4, &bvh8, &bvh8q] {
         closest.push(per_ray(tree, rays, |t, r| t.cast_ray(r).is_some()));
     }
-    for tree in [&bvh4, &bvh8, &bvh8q, &bvh8qb] {
+    for tree in [&bvh4, &bvh8, &bvh8q] {
         closest.push(batched_closest(tree, rays, None, BatchOrdering::ByOctant));
         closest.push(batched_closest(
             tree,
@@ -110,10 +112,10 @@ pub fn race(
                 }
             }),
         }];
-        for tree in [&bvh4, &bvh8, &bvh8q, &bvh8qb] {
+        for tree in [&bvh4, &bvh8, &bvh8q] {
             occluded.push(per_ray(tree, rays, |t, r| t.occluded(r)));
         }
-        for tree in [&bvh4, &bvh8, &bvh8q, &bvh8qb] {
+        for tree in [&bvh4, &bvh8, &bvh8q] {
             occluded.push(batched_occluded(tree, rays, None));
             occluded.push(batched_occluded(tree, rays, Some(FRAME_CALL)));
         }

@@ -46,8 +46,7 @@ pub struct BuildOptions {
     pub parallel: bool,
     /// What the tree copies of its leaves' triangles in leaf order beside the mesh
     /// ([`LeafCopy::Auto`] by default: the vertex indices for [`crate::WideTree`] and
-    /// [`crate::WideTree8`], and for [`crate::QuantizedWideTree8`] on large trees (leaf blocks
-    /// with `build_with_blocks`);
+    /// [`crate::WideTree8`], leaf blocks for [`crate::QuantizedWideTree8`] on large trees,
     /// nothing for the others), so that reading a leaf's triangles takes
     /// fewer dependent loads, scattered less over the mesh. The zero-byte trees and the
     /// quantized-vertex tree copy nothing whatever the choice (a copy would undo their saving),

@@ -87,3 +87,5 @@ impl<B: Bvh> Bvh for Counted<B> {
         self.tree.depth()
     }
 }
+
+crate::query::compiled_queries!(Counted<super::AabbTree>, Counted<super::QuantizedAabbTree>);

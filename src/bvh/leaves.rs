@@ -23,11 +23,11 @@ use crate::prefetch::prefetch;
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 pub enum LeafCopy {
     /// The structure's default: the wide trees with full nodes ([`crate::WideTree`],
-    /// [`crate::WideTree8`]) copy the vertex indices, and so does the quantized 8-wide tree
-    /// ([`crate::QuantizedWideTree8`]) on large trees (over 8 MiB with its mesh, from about
-    /// 270k triangles), or leaf blocks ([`LeafCopy::Blocks`]) when built with them
-    /// (`build_with_blocks`, [`crate::AccelKind::Bvh8qb`]) within 38 bytes a triangle; the
-    /// others copy nothing (their memory is their point).
+    /// [`crate::WideTree8`]) copy the vertex indices; the quantized 8-wide tree
+    /// ([`crate::QuantizedWideTree8`]) takes leaf blocks ([`LeafCopy::Blocks`]) on large trees
+    /// (over 8 MiB with its mesh, from about 270k triangles) within 38 bytes a triangle (the
+    /// indices where blocks would take more); the others copy nothing (their memory is their
+    /// point).
     #[default]
     Auto,
     /// Nothing: each triangle is read through its id and the mesh's index array.

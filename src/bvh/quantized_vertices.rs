@@ -89,6 +89,11 @@ impl<N: NodeFormat> Bvh for QuantizedVertexTree<N> {
     }
 }
 
+crate::query::compiled_queries!(
+    QuantizedVertexTree<crate::bvh::nodes::FullNodes>,
+    QuantizedVertexTree<crate::bvh::nodes::QuantizedNodes>,
+);
+
 impl<N: NodeFormat> Footprint for QuantizedVertexTree<N> {
     fn name(&self) -> &'static str {
         "quantized-vertices"

@@ -105,6 +105,8 @@ impl<N: NodeFormat> Bvh for AabbTree<N> {
     }
 }
 
+crate::query::compiled_queries!(AabbTree, QuantizedAabbTree);
+
 impl<N: NodeFormat> Footprint for AabbTree<N> {
     fn name(&self) -> &'static str {
         N::NAME

@@ -256,6 +256,8 @@ impl Accel for SpatialHash {
     }
 }
 
+crate::query::compiled_queries!(SpatialHash);
+
 impl Footprint for SpatialHash {
     fn name(&self) -> &'static str {
         "hash"

@@ -220,6 +220,8 @@ impl Accel for UniformGrid {
     }
 }
 
+crate::query::compiled_queries!(UniformGrid);
+
 impl Footprint for UniformGrid {
     fn name(&self) -> &'static str {
         "grid"

@@ -133,6 +133,8 @@ impl Accel for KdTree {
     }
 }
 
+crate::query::compiled_queries!(KdTree);
+
 impl Footprint for KdTree {
     fn name(&self) -> &'static str {
         "kd"

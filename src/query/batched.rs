@@ -21,6 +21,8 @@ use crate::batch::partition::Partitioner;
 use crate::batch::scratch::BatchScratch;
 use crate::geom::{Aabb, Kernel, MollerTrumbore, Ray, Watertight};
 use crate::hit::{Any, Closest, Every, Hit, TallyingClosest, Visitor};
+use crate::query::single;
+#[cfg(doc)]
 use crate::query::single::RayQueries;
 use crate::workspace::Workspace;
 
@@ -208,8 +210,10 @@ fn write_closest(hits: &mut [Option<Hit>], slots: &Slots, best: &[Hit]) -> u64 {
     hitting
 }
 
-/// The batched queries, for every [`Accel`]. Output slices must be as long as `rays`.
-pub trait BatchQueries: Accel {
+/// The batched queries. Every structure of the crate implements them (each compiled once, in
+/// this crate). Output slices must be as long as `rays`. Usable as a trait object but for
+/// [`BatchQueries::for_each_hit_batch`].
+pub trait BatchQueries {
     /// Closest hit of every ray (`hits[i]` for `rays[i]`), identical to
     /// [`RayQueries::cast_ray`] on each ray.
     fn cast_rays(&self, rays: &[Ray], hits: &mut [Option<Hit>]) -> Result<(), BatchError> {
@@ -222,49 +226,7 @@ pub trait BatchQueries: Accel {
         rays: &[Ray],
         hits: &mut [Option<Hit>],
         options: &BatchOptions,
-    ) -> Result<(), BatchError> {
-        check_lengths(rays.len(), hits.len())?;
-        if rays.len() < options.min_batch {
-            for (ray, hit) in rays.iter().zip(hits.iter_mut()) {
-                *hit = self.cast_ray_with(ray, options.kernel);
-            }
-            return Ok(());
-        }
-        for_each_prepared_chunk(
-            self,
-            (rays, hits),
-            (options, Query::Closest),
-            |_, hits, mut chunk, answers| {
-                let Answers {
-                    slots,
-                    best,
-                    judged,
-                    ..
-                } = answers;
-                // "No hit before +inf": a hit at the ray's own `tmax` still wins (`Closest`
-                // compares it with the record's `tmax`, then by the tie rule with this), so the
-                // answers equal those of `Hit::none_before(ray.tmax)`, without a gather.
-                best.clear();
-                best.resize(slots.dead() + 1, Hit::none_before(f32::INFINITY));
-                // Only a chunk the thread's choice grouped counts its hits (never the chunks of
-                // a structure that does not mix octants).
-                let Some(judged) = judged else {
-                    chunk.trace(self, &mut Closest { best });
-                    write_closest(hits, slots, best);
-                    return;
-                };
-                let mut visitor = TallyingClosest {
-                    closest: Closest { best },
-                    reported: 0,
-                };
-                chunk.trace(self, &mut visitor);
-                let reported = visitor.reported;
-                let hitting = write_closest(hits, slots, best);
-                judged.record(reported, hitting);
-            },
-        );
-        Ok(())
-    }
+    ) -> Result<(), BatchError>;
 
     /// Occlusion of every ray (`occluded[i]` for `rays[i]`), identical to
     /// [`RayQueries::occluded`]. A ray is retired from the batch at its first hit.
@@ -278,38 +240,16 @@ pub trait BatchQueries: Accel {
         rays: &[Ray],
         occluded: &mut [bool],
         options: &BatchOptions,
-    ) -> Result<(), BatchError> {
-        check_lengths(rays.len(), occluded.len())?;
-        if rays.len() < options.min_batch {
-            for (ray, out) in rays.iter().zip(occluded.iter_mut()) {
-                *out = self.occluded_with(ray, options.kernel);
-            }
-            return Ok(());
-        }
-        for_each_prepared_chunk(
-            self,
-            (rays, occluded),
-            (options, Query::Other),
-            |_, out, mut chunk, answers| {
-                let Answers {
-                    slots, occluded, ..
-                } = answers;
-                occluded.clear();
-                occluded.resize(slots.dead() + 1, false);
-                chunk.trace(self, &mut Any { occluded });
-                for (out, &slot) in out.iter_mut().zip(&slots.of_position) {
-                    *out = occluded.get(slot as usize).copied().unwrap_or(false);
-                }
-            },
-        );
-        Ok(())
-    }
+    ) -> Result<(), BatchError>;
 
     /// Calls `f(i, hit)` for every hit of every ray `rays[i]`, in no particular order and
     /// possibly from several threads at once; the set of calls equals
     /// [`RayQueries::for_each_hit`] on each ray.
-    fn for_each_hit_batch(&self, rays: &[Ray], f: impl Fn(usize, Hit) + Sync) {
-        self.for_each_hit_batch_with(rays, &BatchOptions::default(), f)
+    fn for_each_hit_batch(&self, rays: &[Ray], f: impl Fn(usize, Hit) + Sync)
+    where
+        Self: Sized,
+    {
+        self.for_each_hit_batch_with(rays, &BatchOptions::default(), &f)
     }
 
     /// [`BatchQueries::for_each_hit_batch`] with options.
@@ -317,33 +257,122 @@ pub trait BatchQueries: Accel {
         &self,
         rays: &[Ray],
         options: &BatchOptions,
-        f: impl Fn(usize, Hit) + Sync,
-    ) {
-        if rays.len() < options.min_batch {
-            for (i, ray) in rays.iter().enumerate() {
-                self.for_each_hit_with(ray, options.kernel, |h| f(i, h));
-            }
-            return;
-        }
-        // No output slice: chunks are matched with zero-sized slots.
-        let mut slots = vec![(); rays.len()];
-        for_each_prepared_chunk(
-            self,
-            (rays, &mut slots),
-            (options, Query::Other),
-            |offset, _, mut chunk, answers| {
-                let positions = &answers.slots.positions;
-                chunk.trace(
-                    self,
-                    &mut Every {
-                        offset,
-                        positions,
-                        f: &f,
-                    },
-                );
-            },
-        );
-    }
+        f: &(dyn Fn(usize, Hit) + Sync),
+    );
 }
 
-impl<A: Accel> BatchQueries for A {}
+/// [`BatchQueries::cast_rays_with`] on `accel`.
+pub(crate) fn cast_rays_with<A: Accel>(
+    accel: &A,
+    rays: &[Ray],
+    hits: &mut [Option<Hit>],
+    options: &BatchOptions,
+) -> Result<(), BatchError> {
+    check_lengths(rays.len(), hits.len())?;
+    if rays.len() < options.min_batch {
+        for (ray, hit) in rays.iter().zip(hits.iter_mut()) {
+            *hit = single::cast_ray_with(accel, ray, options.kernel);
+        }
+        return Ok(());
+    }
+    for_each_prepared_chunk(
+        accel,
+        (rays, hits),
+        (options, Query::Closest),
+        |_, hits, mut chunk, answers| {
+            let Answers {
+                slots,
+                best,
+                judged,
+                ..
+            } = answers;
+            // "No hit before +inf": a hit at the ray's own `tmax` still wins (`Closest`
+            // compares it with the record's `tmax`, then by the tie rule with this), so the
+            // answers equal those of `Hit::none_before(ray.tmax)`, without a gather.
+            best.clear();
+            best.resize(slots.dead() + 1, Hit::none_before(f32::INFINITY));
+            // Only a chunk the thread's choice grouped counts its hits (never the chunks of
+            // a structure that does not mix octants).
+            let Some(judged) = judged else {
+                chunk.trace(accel, &mut Closest { best });
+                write_closest(hits, slots, best);
+                return;
+            };
+            let mut visitor = TallyingClosest {
+                closest: Closest { best },
+                reported: 0,
+            };
+            chunk.trace(accel, &mut visitor);
+            let reported = visitor.reported;
+            let hitting = write_closest(hits, slots, best);
+            judged.record(reported, hitting);
+        },
+    );
+    Ok(())
+}
+
+/// [`BatchQueries::occluded_batch_with`] on `accel`.
+pub(crate) fn occluded_batch_with<A: Accel>(
+    accel: &A,
+    rays: &[Ray],
+    occluded: &mut [bool],
+    options: &BatchOptions,
+) -> Result<(), BatchError> {
+    check_lengths(rays.len(), occluded.len())?;
+    if rays.len() < options.min_batch {
+        for (ray, out) in rays.iter().zip(occluded.iter_mut()) {
+            *out = single::occluded_with(accel, ray, options.kernel);
+        }
+        return Ok(());
+    }
+    for_each_prepared_chunk(
+        accel,
+        (rays, occluded),
+        (options, Query::Other),
+        |_, out, mut chunk, answers| {
+            let Answers {
+                slots, occluded, ..
+            } = answers;
+            occluded.clear();
+            occluded.resize(slots.dead() + 1, false);
+            chunk.trace(accel, &mut Any { occluded });
+            for (out, &slot) in out.iter_mut().zip(&slots.of_position) {
+                *out = occluded.get(slot as usize).copied().unwrap_or(false);
+            }
+        },
+    );
+    Ok(())
+}
+
+/// [`BatchQueries::for_each_hit_batch_with`] on `accel`.
+pub(crate) fn for_each_hit_batch_with<A: Accel>(
+    accel: &A,
+    rays: &[Ray],
+    options: &BatchOptions,
+    f: &(dyn Fn(usize, Hit) + Sync),
+) {
+    if rays.len() < options.min_batch {
+        for (i, ray) in rays.iter().enumerate() {
+            single::for_each_hit_with(accel, ray, options.kernel, &mut |h| f(i, h));
+        }
+        return;
+    }
+    // No output slice: chunks are matched with zero-sized slots.
+    let mut slots = vec![(); rays.len()];
+    for_each_prepared_chunk(
+        accel,
+        (rays, &mut slots),
+        (options, Query::Other),
+        |offset, _, mut chunk, answers| {
+            let positions = &answers.slots.positions;
+            chunk.trace(
+                accel,
+                &mut Every {
+                    offset,
+                    positions,
+                    f,
+                },
+            );
+        },
+    );
+}

@@ -17,3 +17,76 @@ pub mod single;
 
 pub use batched::{BatchError, BatchQueries};
 pub use single::RayQueries;
+
+/// Implements [`RayQueries`] and [`BatchQueries`] for each listed [`crate::accel::Accel`] with
+/// the engines of [`single`] and [`batched`]. The impls are not generic, so each structure's
+/// queries are compiled once, in this crate, instead of again in every crate that calls them.
+macro_rules! compiled_queries {
+    ($($structure:ty),+ $(,)?) => {$(
+        impl $crate::query::RayQueries for $structure {
+            fn cast_ray_with(
+                &self,
+                ray: &$crate::geom::Ray,
+                kernel: $crate::geom::Kernel,
+            ) -> Option<$crate::hit::Hit> {
+                $crate::query::single::cast_ray_with(self, ray, kernel)
+            }
+            fn cast_ray_visits(
+                &self,
+                ray: &$crate::geom::Ray,
+                kernel: $crate::geom::Kernel,
+            ) -> (Option<$crate::hit::Hit>, u32) {
+                $crate::query::single::cast_ray_visits(self, ray, kernel)
+            }
+            fn occluded_with(&self, ray: &$crate::geom::Ray, kernel: $crate::geom::Kernel) -> bool {
+                $crate::query::single::occluded_with(self, ray, kernel)
+            }
+            fn for_each_hit_with(
+                &self,
+                ray: &$crate::geom::Ray,
+                kernel: $crate::geom::Kernel,
+                f: &mut dyn FnMut($crate::hit::Hit),
+            ) {
+                $crate::query::single::for_each_hit_with(self, ray, kernel, f)
+            }
+            fn visit<V: $crate::hit::Visitor>(
+                &self,
+                ray: &$crate::geom::Ray,
+                kernel: $crate::geom::Kernel,
+                visitor: &mut V,
+            ) where
+                Self: Sized,
+            {
+                $crate::query::single::visit(self, ray, kernel, visitor)
+            }
+        }
+
+        impl $crate::query::BatchQueries for $structure {
+            fn cast_rays_with(
+                &self,
+                rays: &[$crate::geom::Ray],
+                hits: &mut [Option<$crate::hit::Hit>],
+                options: &$crate::batch::BatchOptions,
+            ) -> Result<(), $crate::query::BatchError> {
+                $crate::query::batched::cast_rays_with(self, rays, hits, options)
+            }
+            fn occluded_batch_with(
+                &self,
+                rays: &[$crate::geom::Ray],
+                occluded: &mut [bool],
+                options: &$crate::batch::BatchOptions,
+            ) -> Result<(), $crate::query::BatchError> {
+                $crate::query::batched::occluded_batch_with(self, rays, occluded, options)
+            }
+            fn for_each_hit_batch_with(
+                &self,
+                rays: &[$crate::geom::Ray],
+                options: &$crate::batch::BatchOptions,
+                f: &(dyn Fn(usize, $crate::hit::Hit) + Sync),
+            ) {
+                $crate::query::batched::for_each_hit_batch_with(self, rays, options, f)
+            }
+        }
+    )+};
+}
+pub(crate) use compiled_queries;

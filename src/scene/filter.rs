@@ -7,27 +7,26 @@
 //! [`SceneView`] is a scene seen through one query mask; like the scene itself it is an
 //! [`crate::accel::Accel`], so every per-ray and batched query works on it.
 
-use crate::scene::mesh_tree::{MeshTree, SceneMesh};
 use crate::scene::world::Scene;
 
 /// A scene seen by queries with layer mask `mask` (see the module docs).
 #[derive(Clone, Copy, Debug)]
-pub struct SceneView<'a, A: SceneMesh = MeshTree> {
-    pub(crate) scene: &'a Scene<A>,
+pub struct SceneView<'a> {
+    pub(crate) scene: &'a Scene,
     pub(crate) mask: u32,
 }
 
-impl<A: SceneMesh> Scene<A> {
+impl Scene {
     /// The scene as seen by queries on layers `mask`: instances whose mask shares no bit with
     /// it are skipped.
-    pub fn filtered(&self, mask: u32) -> SceneView<'_, A> {
+    pub fn filtered(&self, mask: u32) -> SceneView<'_> {
         SceneView { scene: self, mask }
     }
 }
 
-impl<'a, A: SceneMesh> SceneView<'a, A> {
+impl<'a> SceneView<'a> {
     /// The scene.
-    pub fn scene(&self) -> &'a Scene<A> {
+    pub fn scene(&self) -> &'a Scene {
         self.scene
     }
 

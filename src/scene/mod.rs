@@ -1,7 +1,7 @@
 //! Scenes: many meshes, each with its own tree, placed in the world as instances with rigid
 //! transforms, behind the same interface as one tree.
 //!
-//! A [`Scene`] holds meshes (any tree kind, chosen per mesh: [`MeshTree`]), instances of them
+//! A [`Scene`] holds meshes (any tree kind, chosen per mesh: [`crate::AnyAccel`]), instances of them
 //! ([`InstanceDesc`]: a mesh, a [`Rigid`] transform, filter layers; several instances may
 //! share a mesh), and a top-level tree over the instances' world boxes. It is an
 //! [`crate::accel::Accel`], so every query of [`crate::query`] works on it, per ray and
@@ -26,7 +26,7 @@
 //!
 //! ```
 //! use raybatch::glam::{Quat, Vec3};
-//! use raybatch::scene::{InstanceDesc, MeshTree, Rigid, Scene};
+//! use raybatch::scene::{InstanceDesc, Rigid, Scene};
 //! use raybatch::{AccelKind, BatchQueries, BuildOptions, Mesh, Ray, RayQueries};
 //!
 //! // One quad in its own space, facing +z, placed twice: as is, and turned and moved.
@@ -34,7 +34,7 @@
 //!     vec![Vec3::new(-1.0, -1.0, 0.0), Vec3::new(1.0, -1.0, 0.0), Vec3::new(1.0, 1.0, 0.0), Vec3::new(-1.0, 1.0, 0.0)],
 //!     vec![[0, 1, 2], [0, 2, 3]],
 //! )?;
-//! let tree = MeshTree::build(AccelKind::DEFAULT, quad, &BuildOptions::default())?;
+//! let tree = AccelKind::DEFAULT.build(quad, &BuildOptions::default())?;
 //! let door = Rigid::new(Quat::from_rotation_y(0.5), Vec3::new(0.0, 0.0, 5.0))?;
 //! let mut scene = Scene::new(
 //!     vec![tree],
@@ -60,7 +60,6 @@
 pub mod error;
 pub mod filter;
 pub mod instance;
-pub mod mesh_tree;
 pub mod refit;
 pub mod rigid;
 mod top;
@@ -70,7 +69,6 @@ pub mod world;
 pub use error::SceneError;
 pub use filter::SceneView;
 pub use instance::{ALL_LAYERS, Instance, InstanceDesc};
-pub use mesh_tree::{MeshTree, SceneMesh};
 pub use rigid::{RIGID_TOLERANCE, Rigid};
 pub use trace::SceneScratch;
 pub use world::{Scene, SceneHit};

@@ -15,25 +15,28 @@
 //! to the same visitors, so batched answers equal per-ray answers bit for bit.
 
 use crate::accel::{Accel, Footprint, RayStream, Storage, StreamLayout};
+use crate::batch::BatchOptions;
 use crate::batch::lanes::Lanes;
+use crate::catalog::AnyAccel;
+use crate::geom::{Kernel, Ray};
 use crate::geom::{PreparedRay, TriangleTest};
 use crate::hit::{Hit, Visitor};
+use crate::query::{BatchError, BatchQueries, RayQueries};
 use crate::scene::filter::SceneView;
 use crate::scene::instance::{ALL_LAYERS, Instance, grown, ray_pad};
-use crate::scene::mesh_tree::SceneMesh;
 use crate::scene::top::TopNode;
 use crate::scene::world::Scene;
 
 /// Per-thread memory of scene traversals: the top-level stacks, the mesh-space lanes of an
 /// instance visit and the meshes' own scratch.
 #[derive(Default)]
-pub struct SceneScratch<S> {
+pub struct SceneScratch {
     stack: Vec<u32>,
     stream_stack: Vec<(u32, u32)>,
     lanes: Lanes,
     /// Per mesh-space lane: the ray's index in the world stream and its id in the batch.
     outer: Vec<(u32, u32)>,
-    inner: S,
+    inner: <AnyAccel as Accel>::Scratch,
 }
 
 /// The visitor `inner`, fed global triangle ids (and batch ids, for streams).
@@ -78,13 +81,13 @@ fn second_first(node: &TopNode, octant_mask: u8) -> bool {
 
 /// One ray through the scene's top-level subtree under node `start` (the root for a per-ray
 /// query; a node a stream reached with few rays left, see [`trace_stream`]).
-fn trace_one<A: SceneMesh, K: TriangleTest, V: Visitor>(
-    scene: &Scene<A>,
+fn trace_one<K: TriangleTest, V: Visitor>(
+    scene: &Scene,
     mask: u32,
     ray: &PreparedRay,
     id: u32,
     start: u32,
-    scratch: &mut SceneScratch<A::Scratch>,
+    scratch: &mut SceneScratch,
     visitor: &mut V,
 ) -> f32 {
     let mut tmax = ray.tmax;
@@ -110,8 +113,7 @@ fn trace_one<A: SceneMesh, K: TriangleTest, V: Visitor>(
             for slot in node.first..node.first + node.count {
                 let instance = &scene.instances[scene.top.order[slot as usize] as usize];
                 if seen(instance.mask, mask) {
-                    tmax =
-                        trace_instance::<A, K, V>(scene, instance, ray, tmax, id, scratch, visitor);
+                    tmax = trace_instance::<K, V>(scene, instance, ray, tmax, id, scratch, visitor);
                 }
             }
         } else {
@@ -128,13 +130,13 @@ fn trace_one<A: SceneMesh, K: TriangleTest, V: Visitor>(
 
 /// One ray on one instance, in its mesh space; returns the new range end.
 #[inline]
-fn trace_instance<A: SceneMesh, K: TriangleTest, V: Visitor>(
-    scene: &Scene<A>,
+fn trace_instance<K: TriangleTest, V: Visitor>(
+    scene: &Scene,
     instance: &Instance,
     ray: &PreparedRay,
     tmax: f32,
     id: u32,
-    scratch: &mut SceneScratch<A::Scratch>,
+    scratch: &mut SceneScratch,
     visitor: &mut V,
 ) -> f32 {
     let Some(local) = instance.transform.prepared_to_mesh(ray, tmax) else {
@@ -154,11 +156,11 @@ fn trace_instance<A: SceneMesh, K: TriangleTest, V: Visitor>(
 }
 
 /// A stream through the scene (see the module docs).
-fn trace_stream<A: SceneMesh, K: TriangleTest, V: Visitor>(
-    scene: &Scene<A>,
+fn trace_stream<K: TriangleTest, V: Visitor>(
+    scene: &Scene,
     mask: u32,
     stream: &mut RayStream<'_>,
-    scratch: &mut SceneScratch<A::Scratch>,
+    scratch: &mut SceneScratch,
     visitor: &mut V,
 ) {
     let nodes = &scene.top.nodes;
@@ -185,7 +187,7 @@ fn trace_stream<A: SceneMesh, K: TriangleTest, V: Visitor>(
             for i in 0..active {
                 let ray = stream.ray(i);
                 let id = stream.id(i);
-                let tmax = trace_one::<A, K, V>(scene, mask, &ray, id, index, scratch, visitor);
+                let tmax = trace_one::<K, V>(scene, mask, &ray, id, index, scratch, visitor);
                 stream.set_tmax(i, tmax);
             }
             continue;
@@ -194,7 +196,7 @@ fn trace_stream<A: SceneMesh, K: TriangleTest, V: Visitor>(
             for slot in node.first..node.first + node.count {
                 let instance = &scene.instances[scene.top.order[slot as usize] as usize];
                 if seen(instance.mask, mask) {
-                    stream_instance::<A, K, V>(scene, instance, stream, active, scratch, visitor);
+                    stream_instance::<K, V>(scene, instance, stream, active, scratch, visitor);
                 }
             }
         } else {
@@ -219,12 +221,12 @@ fn stream_pad(stream: &RayStream<'_>) -> f32 {
 
 /// Rays `0..active` of `stream` on one instance: transformed once into mesh-space lanes,
 /// traced as one stream, their range ends copied back.
-fn stream_instance<A: SceneMesh, K: TriangleTest, V: Visitor>(
-    scene: &Scene<A>,
+fn stream_instance<K: TriangleTest, V: Visitor>(
+    scene: &Scene,
     instance: &Instance,
     stream: &mut RayStream<'_>,
     active: usize,
-    scratch: &mut SceneScratch<A::Scratch>,
+    scratch: &mut SceneScratch,
     visitor: &mut V,
 ) {
     let mesh = &scene.meshes[instance.mesh()];
@@ -277,8 +279,9 @@ fn stream_instance<A: SceneMesh, K: TriangleTest, V: Visitor>(
     }
 }
 
-impl<A: SceneMesh> Accel for Scene<A> {
-    type Scratch = SceneScratch<A::Scratch>;
+/// A view answers the queries; the scene is its view on every layer.
+impl Accel for SceneView<'_> {
+    type Scratch = SceneScratch;
     // The top level partitions the stream at each of its nodes.
     const STREAM_LAYOUT: StreamLayout = StreamLayout::Lanes;
 
@@ -289,7 +292,7 @@ impl<A: SceneMesh> Accel for Scene<A> {
         scratch: &mut Self::Scratch,
         visitor: &mut V,
     ) -> f32 {
-        trace_one::<A, K, V>(self, ALL_LAYERS, ray, id, 0, scratch, visitor)
+        trace_one::<K, V>(self.scene, self.mask, ray, id, 0, scratch, visitor)
     }
 
     fn trace_stream<K: TriangleTest, V: Visitor>(
@@ -298,36 +301,65 @@ impl<A: SceneMesh> Accel for Scene<A> {
         scratch: &mut Self::Scratch,
         visitor: &mut V,
     ) {
-        trace_stream::<A, K, V>(self, ALL_LAYERS, stream, scratch, visitor)
+        trace_stream::<K, V>(self.scene, self.mask, stream, scratch, visitor)
     }
 }
 
-impl<A: SceneMesh> Accel for SceneView<'_, A> {
-    type Scratch = SceneScratch<A::Scratch>;
-    // The top level partitions the stream at each of its nodes.
-    const STREAM_LAYOUT: StreamLayout = StreamLayout::Lanes;
+crate::query::compiled_queries!(SceneView<'_>);
 
-    fn trace<K: TriangleTest, V: Visitor>(
-        &self,
-        ray: &PreparedRay,
-        id: u32,
-        scratch: &mut Self::Scratch,
-        visitor: &mut V,
-    ) -> f32 {
-        trace_one::<A, K, V>(self.scene, self.mask, ray, id, 0, scratch, visitor)
+/// The scene's queries are its view's on every layer ([`ALL_LAYERS`]).
+impl RayQueries for Scene {
+    fn cast_ray_with(&self, ray: &Ray, kernel: Kernel) -> Option<Hit> {
+        self.filtered(ALL_LAYERS).cast_ray_with(ray, kernel)
     }
+    fn cast_ray_visits(&self, ray: &Ray, kernel: Kernel) -> (Option<Hit>, u32) {
+        self.filtered(ALL_LAYERS).cast_ray_visits(ray, kernel)
+    }
+    fn occluded_with(&self, ray: &Ray, kernel: Kernel) -> bool {
+        self.filtered(ALL_LAYERS).occluded_with(ray, kernel)
+    }
+    fn for_each_hit_with(&self, ray: &Ray, kernel: Kernel, f: &mut dyn FnMut(Hit)) {
+        self.filtered(ALL_LAYERS).for_each_hit_with(ray, kernel, f)
+    }
+    fn visit<V: Visitor>(&self, ray: &Ray, kernel: Kernel, visitor: &mut V)
+    where
+        Self: Sized,
+    {
+        self.filtered(ALL_LAYERS).visit(ray, kernel, visitor)
+    }
+}
 
-    fn trace_stream<K: TriangleTest, V: Visitor>(
+impl BatchQueries for Scene {
+    fn cast_rays_with(
         &self,
-        stream: &mut RayStream<'_>,
-        scratch: &mut Self::Scratch,
-        visitor: &mut V,
+        rays: &[Ray],
+        hits: &mut [Option<Hit>],
+        options: &BatchOptions,
+    ) -> Result<(), BatchError> {
+        self.filtered(ALL_LAYERS)
+            .cast_rays_with(rays, hits, options)
+    }
+    fn occluded_batch_with(
+        &self,
+        rays: &[Ray],
+        occluded: &mut [bool],
+        options: &BatchOptions,
+    ) -> Result<(), BatchError> {
+        self.filtered(ALL_LAYERS)
+            .occluded_batch_with(rays, occluded, options)
+    }
+    fn for_each_hit_batch_with(
+        &self,
+        rays: &[Ray],
+        options: &BatchOptions,
+        f: &(dyn Fn(usize, Hit) + Sync),
     ) {
-        trace_stream::<A, K, V>(self.scene, self.mask, stream, scratch, visitor)
+        self.filtered(ALL_LAYERS)
+            .for_each_hit_batch_with(rays, options, f)
     }
 }
 
-impl<A: SceneMesh> Footprint for Scene<A> {
+impl Footprint for Scene {
     fn name(&self) -> &'static str {
         "scene"
     }

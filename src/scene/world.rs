@@ -10,19 +10,20 @@
 
 use glam::Vec3;
 
+use crate::accel::Footprint;
+use crate::catalog::AnyAccel;
 use crate::hit::Hit;
 use crate::mesh::MAX_TRIANGLES;
 use crate::scene::error::SceneError;
 use crate::scene::instance::{Instance, InstanceDesc, world_box};
-use crate::scene::mesh_tree::{MeshTree, SceneMesh};
 use crate::scene::rigid::Rigid;
 use crate::scene::top::TopTree;
 
 /// Many meshes placed as instances, answering rays in world space (see the module docs and
 /// [`crate::scene`]).
 #[derive(Debug)]
-pub struct Scene<A: SceneMesh = MeshTree> {
-    pub(crate) meshes: Vec<A>,
+pub struct Scene {
+    pub(crate) meshes: Vec<AnyAccel>,
     pub(crate) instances: Vec<Instance>,
     pub(crate) top: TopTree,
     /// Per instance, its world box and mask, in the arrays the top-level tree reads.
@@ -45,10 +46,10 @@ pub struct SceneHit {
     pub v: f32,
 }
 
-impl<A: SceneMesh> Scene<A> {
+impl Scene {
     /// A scene of `meshes` placed as `instances` (several may share a mesh). Errors on an
     /// instance of a mesh that does not exist or more triangles than 32-bit ids can number.
-    pub fn new(meshes: Vec<A>, instances: &[InstanceDesc]) -> Result<Self, SceneError> {
+    pub fn new(meshes: Vec<AnyAccel>, instances: &[InstanceDesc]) -> Result<Self, SceneError> {
         let mut total = 0u64;
         for d in instances {
             let mesh = meshes.get(d.mesh).ok_or(SceneError::NoSuchMesh {
@@ -88,7 +89,7 @@ impl<A: SceneMesh> Scene<A> {
     }
 
     /// The meshes.
-    pub fn meshes(&self) -> &[A] {
+    pub fn meshes(&self) -> &[AnyAccel] {
         &self.meshes
     }
 
@@ -201,9 +202,7 @@ impl<A: SceneMesh> Scene<A> {
         }
         self.top.refit(&self.boxes, &self.masks);
     }
-}
 
-impl Scene<MeshTree> {
     /// Moves mesh `mesh`'s vertices to `vertices` (same count, same triangles: a deformation)
     /// and refits its tree and every instance of it, without a rebuild. Only meshes built as
     /// [`crate::catalog::AccelKind::Aabb`] can be refitted (see [`crate::scene::refit`]); on

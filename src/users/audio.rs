@@ -22,11 +22,12 @@ use std::sync::Mutex;
 
 use rayon::prelude::*;
 
+use crate::accel::Footprint;
 use crate::batch::BatchOptions;
 use crate::geom::Ray;
 use crate::hit::Hit;
 use crate::query::{BatchError, BatchQueries, RayQueries};
-use crate::scene::{Scene, SceneMesh};
+use crate::scene::Scene;
 
 /// Relative distance (of `t`) within which hits are one crossing: `2^-16`, far above the
 /// rounding of `t` (a few units in the last place, plus the instance transform's) and far below
@@ -106,7 +107,7 @@ impl Materials {
     /// The losses of `scene`'s meshes: `tables[m][t]` for triangle `t` of mesh `m` (extra
     /// entries are ignored). Errors, and builds nothing, on a missing or short table or a
     /// negative or non-finite loss.
-    pub fn new<A: SceneMesh>(scene: &Scene<A>, tables: Vec<Vec<f32>>) -> Result<Self, AudioError> {
+    pub fn new(scene: &Scene, tables: Vec<Vec<f32>>) -> Result<Self, AudioError> {
         if tables.len() != scene.meshes().len() {
             return Err(AudioError::WrongTableCount {
                 meshes: scene.meshes().len(),
@@ -143,7 +144,7 @@ impl Materials {
     }
 
     /// One loss for every triangle of every mesh.
-    pub fn uniform<A: SceneMesh>(scene: &Scene<A>, loss_db: f32) -> Result<Self, AudioError> {
+    pub fn uniform(scene: &Scene, loss_db: f32) -> Result<Self, AudioError> {
         let tables = scene
             .meshes()
             .iter()
@@ -215,7 +216,7 @@ pub fn occlusion<W: RayQueries>(
 /// [`occlusion`] for every segment (`out[i]` for `segments[i]`), batched: the segments are
 /// split over rayon's threads and each part traced as one batch; the same answers as
 /// [`occlusion`] on each, bit for bit.
-pub fn occlusion_batch<W: BatchQueries>(
+pub fn occlusion_batch<W: BatchQueries + Sync>(
     world: &W,
     materials: &Materials,
     segments: &[Ray],
@@ -240,7 +241,7 @@ pub fn occlusion_batch<W: BatchQueries>(
         .zip(out.par_chunks_mut(part))
         .for_each(|(rays, out)| {
             let hits = Mutex::new(Vec::<(usize, Hit)>::new());
-            world.for_each_hit_batch_with(rays, &options, |i, h| {
+            world.for_each_hit_batch_with(rays, &options, &|i, h| {
                 hits.lock().unwrap_or_else(|e| e.into_inner()).push((i, h))
             });
             let mut hits = hits.into_inner().unwrap_or_else(|e| e.into_inner());

@@ -110,33 +110,22 @@ impl<N: NodeKind> WideBvh<N> {
     /// Builds the binary SAH tree with `options` and collapses it. An empty mesh gives an empty
     /// tree that every ray misses.
     pub fn build(mesh: impl Into<Arc<Mesh>>, options: &BuildOptions) -> Result<Self, BuildError> {
-        Self::build_with_large_copy(mesh.into(), options, N::LEAF_COPY_LARGE)
+        Self::build_arc(mesh.into(), options)
     }
 
-    /// [`WideBvh::build`], but where [`LeafCopy::Auto`] takes leaf blocks on large trees (over
-    /// 8 MiB with the mesh), within 38 bytes a triangle with the nodes (the index copy where
-    /// they would take more): one read a leaf, the fastest per ray beyond the caches
-    /// ([`crate::AccelKind::Bvh8qb`] for the quantized 8-wide tree).
-    pub fn build_with_blocks(
-        mesh: impl Into<Arc<Mesh>>,
-        options: &BuildOptions,
-    ) -> Result<Self, BuildError> {
-        Self::build_with_large_copy(mesh.into(), options, LeafCopy::Blocks)
-    }
-
-    /// [`WideBvh::build`] with `large_copy` as [`LeafCopy::Auto`]'s choice on large trees.
-    fn build_with_large_copy(
-        mesh: Arc<Mesh>,
-        options: &BuildOptions,
-        large_copy: LeafCopy,
-    ) -> Result<Self, BuildError> {
+    /// [`WideBvh::build`], compiled once per layout.
+    fn build_arc(mesh: Arc<Mesh>, options: &BuildOptions) -> Result<Self, BuildError> {
         let built = build(&mesh, options)?;
         check_size(built.triangle_order.len(), built.nodes.len(), N::FORMAT)?;
         let root_bounds = built.nodes.first().map_or(Aabb::EMPTY, |n| n.bounds);
         let (mut nodes, mut root) =
             collapse::collapse(&built, options.wide_leaf_size).unwrap_or((Vec::new(), 0));
-        let copy = (options.leaf_copy, large_copy);
-        let triangles = leaves((&mut nodes, &mut root), mesh, built.triangle_order, copy);
+        let triangles = leaves(
+            (&mut nodes, &mut root),
+            mesh,
+            built.triangle_order,
+            options.leaf_copy,
+        );
         let mut tree = Self {
             nodes,
             root,
@@ -200,7 +189,7 @@ impl<N: NodeKind> WideBvh<N> {
 }
 
 /// The leaf triangles of `order` over `mesh` for the tree of `nodes` and `root`, with the copy
-/// `asked` ([`LeafCopy::Auto`]: `large_copy` on large trees, see [`default_leaf_copy`]):
+/// `asked` ([`LeafCopy::Auto`]: see [`default_leaf_copy`]):
 /// blocks (the tree's leaf words rewritten to address them) if the copy is blocks, they are
 /// addressable and, where `Auto` chose them, they take at most
 /// [`AUTO_BLOCKS_MAX_BYTES_PER_TRIANGLE`] with the nodes; else slots (with the index copy in
@@ -209,9 +198,9 @@ fn leaves<N: NodeKind>(
     (nodes, root): (&mut [N], &mut u32),
     mesh: Arc<Mesh>,
     order: Vec<u32>,
-    (asked, large_copy): (LeafCopy, LeafCopy),
+    asked: LeafCopy,
 ) -> WideLeaves {
-    let copy = asked.or(default_leaf_copy::<N>(&mesh, large_copy));
+    let copy = asked.or(default_leaf_copy::<N>(&mesh));
     let budget = (asked == LeafCopy::Auto)
         .then(|| mesh.triangle_count() * AUTO_BLOCKS_MAX_BYTES_PER_TRIANGLE);
     if copy == LeafCopy::Blocks {
@@ -243,11 +232,11 @@ fn leaf_words_mut<'a, N: NodeKind>(
         .filter(|word| leaf_word::is_leaf(**word))
 }
 
-/// What a tree over `mesh` copies of its leaves by default: `large_copy` if the smallest wide
-/// tree and the mesh take over [`LARGE_TREE_BYTES`], else the layout's [`NodeKind`] choice.
-fn default_leaf_copy<N: NodeKind>(mesh: &Mesh, large_copy: LeafCopy) -> LeafCopy {
+/// What a tree over `mesh` copies of its leaves by default: the layout's `LEAF_COPY_LARGE` if
+/// the smallest wide tree and the mesh take over [`LARGE_TREE_BYTES`], else its `LEAF_COPY`.
+fn default_leaf_copy<N: NodeKind>(mesh: &Mesh) -> LeafCopy {
     if smallest_working_set(mesh) > LARGE_TREE_BYTES {
-        large_copy
+        N::LEAF_COPY_LARGE
     } else {
         N::LEAF_COPY
     }
@@ -270,8 +259,7 @@ fn smallest_working_set(mesh: &Mesh) -> usize {
 const QUANTIZED_TREE_BYTES_PER_TRIANGLE: usize = 13;
 
 /// Above this many bytes (smallest tree and mesh) a tree takes its layout's leaf copy for large
-/// trees ([`NodeKind`]'s `LEAF_COPY_LARGE`: the index copy for the quantized 8-wide tree, leaf
-/// blocks with [`WideBvh::build_with_blocks`]). Below it the tree mostly stays in cache and
+/// trees ([`NodeKind`]'s `LEAF_COPY_LARGE`: leaf blocks for the quantized 8-wide tree). Below it the tree mostly stays in cache and
 /// memory is the quantized trees' point. Measured on the quantized 8-wide tree (one thread, 1M incoherent rays per ray, alternated, best of 3, ms,
 /// no copy / index copy / blocks): bunny (2.1 MB) 171.9 / 161.7 / 163.0; a bunny subdivided
 /// once (278k triangles, 8.6 MB) 325.6 / 274.4 / 278.9; a 500k-triangle heightfield (15.5 MB)
@@ -528,6 +516,8 @@ impl<N: NodeKind> WideBvh<N> {
     }
 }
 
+crate::query::compiled_queries!(WideTree, WideTree8, QuantizedWideTree, QuantizedWideTree8);
+
 impl<N: NodeKind> Footprint for WideBvh<N> {
     fn name(&self) -> &'static str {
         N::NAME
@@ -618,10 +608,10 @@ mod tests {
         assert_eq!(permuted.max_chunk(&incoherent), LARGE_TREE_CHUNK);
     }
 
-    /// The quantized 8-wide tree copies nothing by default on small trees and the indices on
-    /// large ones; built with blocks (`bvh8qb`, which [`crate::AccelKind::for_mesh`] picks
-    /// there) it takes blocks there, under the full binary tree's 38.5 bytes a triangle. Told
-    /// otherwise, it does as told, and it answers as the 8-wide tree does with every copy.
+    /// The quantized 8-wide tree copies nothing by default on small trees and takes leaf
+    /// blocks on large ones (where [`crate::AccelKind::for_mesh`] picks it), under the full
+    /// binary tree's 38.5 bytes a triangle. Told otherwise, it does as told, and it answers as
+    /// the 8-wide tree does with every copy.
     #[test]
     fn quantized_trees_copy_by_size() {
         let node_bytes = |tree: &QuantizedWideTree8| tree.nodes.len() * 128;
@@ -635,19 +625,11 @@ mod tests {
             small.heap_bytes(),
             node_bytes(&small) + small.triangle_count() * 4
         );
-        let small_blocks = QuantizedWideTree8::build_with_blocks(bunny(), &BuildOptions::default());
-        assert_eq!(small_blocks.unwrap().heap_bytes(), small.heap_bytes());
         let mesh = Arc::new(large_grid_mesh());
         assert!(mesh_beyond_caches(&mesh));
-        assert_eq!(crate::AccelKind::for_mesh(&mesh), crate::AccelKind::Bvh8qb);
-        let large = QuantizedWideTree8::build(mesh.clone(), &BuildOptions::default()).unwrap();
-        assert!(large.beyond_caches);
-        assert_eq!(
-            large.heap_bytes(),
-            node_bytes(&large) + large.triangle_count() * 12
-        );
-        let blocks =
-            QuantizedWideTree8::build_with_blocks(mesh.clone(), &BuildOptions::default()).unwrap();
+        assert_eq!(crate::AccelKind::for_mesh(&mesh), crate::AccelKind::Bvh8q);
+        let blocks = QuantizedWideTree8::build(mesh.clone(), &BuildOptions::default()).unwrap();
+        assert!(blocks.beyond_caches);
         assert!(matches!(blocks.triangles, WideLeaves::Blocks(_)));
         let per_triangle = blocks.heap_bytes() as f64 / blocks.triangle_count() as f64;
         assert!(per_triangle < 38.5, "{per_triangle} bytes a triangle");
@@ -661,11 +643,15 @@ mod tests {
             node_bytes(&plain) + plain.triangle_count() * 4
         );
         let indices = QuantizedWideTree8::build(mesh.clone(), &told(LeafCopy::Indices)).unwrap();
+        assert_eq!(
+            indices.heap_bytes(),
+            node_bytes(&indices) + indices.triangle_count() * 12
+        );
         let full = WideTree8::build(mesh.clone(), &BuildOptions::default()).unwrap();
         let rays = random_rays(&mesh, 3_000, 9);
         let per_ray: Vec<Option<Hit>> = rays.iter().map(|r| full.cast_ray(r)).collect();
         assert!(per_ray.iter().filter(|hit| hit.is_some()).count() > 100);
-        for tree in [&large, &blocks, &plain, &indices] {
+        for tree in [&blocks, &plain, &indices] {
             let answers: Vec<Option<Hit>> = rays.iter().map(|r| tree.cast_ray(r)).collect();
             assert!(answers == per_ray);
             let mut batched = vec![None; rays.len()];
@@ -676,7 +662,7 @@ mod tests {
 
     /// On a large tree whose blocks would pass the budget (a soup of 150k triangles sharing no
     /// corner: 12 bytes of corners a triangle more than a mesh whose triangles share them), a
-    /// build with blocks copies the indices instead; blocks asked for are blocks.
+    /// default build copies the indices instead; blocks asked for are blocks.
     #[test]
     fn default_blocks_keep_to_the_budget() {
         let vertices: Vec<Vec3> = (0..150_000u32)
@@ -690,12 +676,11 @@ mod tests {
             .collect();
         let mesh = Arc::new(Mesh::new(vertices, triangles).unwrap());
         assert!(smallest_working_set(&mesh) > LARGE_TREE_BYTES);
-        let auto =
-            QuantizedWideTree8::build_with_blocks(mesh.clone(), &BuildOptions::default()).unwrap();
+        let auto = QuantizedWideTree8::build(mesh.clone(), &BuildOptions::default()).unwrap();
         let indices = auto.nodes.len() * size_of::<QuantizedWideNode8>() + 12 * 150_000;
         assert_eq!(auto.heap_bytes(), indices);
         let options = BuildOptions::default().with_leaf_copy(LeafCopy::Blocks);
-        let asked = QuantizedWideTree8::build_with_blocks(mesh.clone(), &options).unwrap();
+        let asked = QuantizedWideTree8::build(mesh.clone(), &options).unwrap();
         assert!(matches!(asked.triangles, WideLeaves::Blocks(_)));
         assert!(asked.heap_bytes() > 38 * 150_000);
     }
@@ -846,7 +831,7 @@ mod tests {
                     .unwrap();
             }
             let every = std::sync::Mutex::new(vec![Vec::new(); rays.len()]);
-            tree.for_each_hit_batch_with(&rays, &batch, |i, hit| {
+            tree.for_each_hit_batch_with(&rays, &batch, &|i, hit| {
                 every.lock().unwrap()[i].push(hit);
             });
             let mut every = every.into_inner().unwrap();
@@ -933,7 +918,10 @@ mod tests {
         }
     }
 
-    fn answers_equal_the_binary_tree_for<N: NodeKind>() {
+    fn answers_equal_the_binary_tree_for<N: NodeKind>()
+    where
+        WideBvh<N>: RayQueries + BatchQueries,
+    {
         let mesh = Arc::new(bunny());
         let rays = random_rays(&mesh, 20_000, 5);
         let cases = [

@@ -118,10 +118,10 @@ impl Layout for QuantizedWideNode8 {
     const FORMAT: &'static str = "quantized 8-wide nodes (128 B)";
     // As the quantized 4-wide tree: the index copy would add 8 B a triangle to about 12...
     const LEAF_COPY: LeafCopy = LeafCopy::Nothing;
-    // ...except on large trees (over 8 MiB with the mesh), where the index copy saves a trip to
-    // memory per leaf and keeps the tree within the quantized tree's 21.3 B/tri (20.0-20.8 on
-    // 1M-triangle meshes). Leaf blocks save one more (`build_with_blocks`, `bvh8qb`) for 36 B/tri.
-    const LEAF_COPY_LARGE: LeafCopy = LeafCopy::Indices;
+    // ...except on large trees (over 8 MiB with the mesh), where leaf blocks make each leaf one
+    // trip to memory instead of two or three, at about 36 B/tri (the index copy, 20-21 B/tri,
+    // where blocks would take more than 38: `wide::leaves`'s budget).
+    const LEAF_COPY_LARGE: LeafCopy = LeafCopy::Blocks;
 
     fn from_children(children: &[(Aabb, u32)]) -> Self {
         debug_assert!(children.len() <= WIDTH);

@@ -353,6 +353,14 @@ impl<const TOP_LEVEL: bool> Bvh for PackedTree<TOP_LEVEL> {
     }
 }
 
+// Also wrapped in `Permuted`, as the catalog holds them, to answer in the mesh's own ids.
+crate::query::compiled_queries!(
+    super::ZeroByteTree,
+    HybridTree,
+    crate::permuted::Permuted<super::ZeroByteTree>,
+    crate::permuted::Permuted<HybridTree>,
+);
+
 impl<const TOP_LEVEL: bool> Footprint for PackedTree<TOP_LEVEL> {
     fn name(&self) -> &'static str {
         match (TOP_LEVEL, self.options.zbt.box_cache) {

@@ -345,9 +345,9 @@ const BRUTE_FORCE_MIN_RAYS: usize = 100;
 /// beside the mesh) against the zero-byte trees, closest hit on incoherent rays, and what the
 /// zero-byte trees keep beside the mesh.
 fn zero_memory(scene: &BenchScene, rays: &RaySets, rows: &[Row]) -> String {
-    let zero_byte = |r: &&Row| matches!(r.tree, AccelKind::Zbt | AccelKind::ZbtNoCache);
+    let zero_byte = |r: &&Row| r.tree == AccelKind::Zbt;
     if !rows.iter().any(|r| zero_byte(&r)) {
-        // `--trees` left both out.
+        // `--trees` left it out.
         return String::new();
     }
     let incoherent = rays.get(RaySet::Incoherent);

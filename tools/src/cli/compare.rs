@@ -6,10 +6,11 @@
 //! per-ray speeds of the per-ray vs batched table and of the sweep are taken from the main table
 //! (the same queries); the one-line comparisons time both sides back to back.
 
-use raybatch::{AnyAccel, BatchOrdering, Kernel, PartitionKernel, Ray};
+use raybatch::{BatchOrdering, Kernel, PartitionKernel, Ray};
 use raybatch_tools::report::{Record, Section};
 
 use crate::progress;
+use crate::runner::Measured;
 use crate::runner::{Engine, Query, QueryKind};
 use crate::table::{Align, Table, mrays, ratio, thousands};
 use crate::workload::{COLUMNS, Column, PASSES, RaySets, speed, time_in_batches};
@@ -78,7 +79,7 @@ pub struct Subject<'a> {
     pub scene: &'a str,
     /// `aabb/pns`, ...
     pub label: String,
-    pub tree: &'a AnyAccel,
+    pub tree: &'a dyn Measured,
 }
 
 impl Subject<'_> {

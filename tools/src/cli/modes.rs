@@ -19,8 +19,8 @@ use raybatch::bvh::nodes::FullNodes;
 use raybatch::bvh::{Counted, QuantizedVertexTree};
 use raybatch::mesh::quantized::QuantizedMesh;
 use raybatch::{
-    AabbTree, AccelKind, AnyAccel, BatchOrdering, BuildOptions, Footprint, Kernel, Mesh,
-    QuantizedAabbTree, Ray, RayQueries,
+    AabbTree, AccelKind, BatchOrdering, BuildOptions, Kernel, Mesh, QuantizedAabbTree, Ray,
+    RayQueries,
 };
 use raybatch_tools::judge::{Reference, score};
 use raybatch_tools::report::{Record, Section};
@@ -28,6 +28,7 @@ use raybatch_tools::scenes::RaySet;
 use raybatch_tools::scenes::closed::{aimed_rays, closed_meshes};
 
 use crate::progress;
+use crate::runner::Measured;
 use crate::runner::{Engine, Query, QueryKind, QueryRunner};
 use crate::table::{Align, Table, thousands};
 use crate::workload::{PASSES, RaySets, speed};
@@ -85,7 +86,7 @@ const MODES: [Mode; 9] = [
 
 /// A built mode: the structure and the bytes per triangle of the mesh it reads.
 struct Built {
-    tree: AnyAccel,
+    tree: Box<dyn Measured>,
     mesh_bytes: usize,
 }
 
@@ -93,9 +94,10 @@ fn build(mode: &Mode, mesh: &Arc<Mesh>) -> Built {
     let options = BuildOptions::default();
     match mode.build {
         Build::Tree(kind) => Built {
-            tree: kind
-                .build(mesh.clone(), &options)
-                .expect("the scenes build"),
+            tree: Box::new(
+                kind.build(mesh.clone(), &options)
+                    .expect("the scenes build"),
+            ),
             mesh_bytes: mesh.heap_bytes(),
         },
         Build::QuantizedVertices(bits) => {
@@ -103,7 +105,7 @@ fn build(mode: &Mode, mesh: &Arc<Mesh>) -> Built {
             let mesh_bytes = q.heap_bytes();
             let tree = QuantizedVertexTree::<FullNodes>::build(q, &options).expect("builds");
             Built {
-                tree: AnyAccel::new(tree),
+                tree: Box::new(tree),
                 mesh_bytes,
             }
         }
@@ -127,7 +129,10 @@ fn nodes_per_ray(mode: &Mode, mesh: &Arc<Mesh>, rays: &[Ray]) -> Option<f64> {
     Some(visits as f64 / rays.len().max(1) as f64)
 }
 
-fn count<B: raybatch::Bvh>(tree: &Counted<B>, rays: &[Ray]) -> u64 {
+fn count<B: raybatch::Bvh>(tree: &Counted<B>, rays: &[Ray]) -> u64
+where
+    Counted<B>: RayQueries,
+{
     rays.iter().for_each(|r| {
         std::hint::black_box(tree.cast_ray(r));
     });
@@ -165,7 +170,7 @@ pub fn section(scene: &str, mesh: &Arc<Mesh>, rays: &RaySets) -> (String, Vec<Re
             .with_threads(1);
             for (engine, query) in [("per-ray", per_ray), ("batched", batched)] {
                 let mut r = Record::new(Section::Modes, scene, m.name, &label, engine)
-                    .speed(speed(&built.tree, query, all));
+                    .speed(speed(&*built.tree, query, all));
                 r.bytes_per_triangle = Some(built.tree.heap_bytes() as f64 / triangles);
                 r.mesh_bytes_per_triangle = Some(built.mesh_bytes as f64 / triangles);
                 r.score = Some(score(&judge, sample, truth, &answers));
@@ -256,7 +261,7 @@ pub fn leaks(count: usize) -> (String, Vec<Record>) {
             let [per_ray, batched] = [Engine::PerRay, Engine::batched(BatchOrdering::ByOctant)]
                 .map(|engine| {
                     let query = Query::new(QueryKind::Closest, m.kernel, engine).with_threads(1);
-                    let mut runner = QueryRunner::new(&built.tree, query, rays.len())
+                    let mut runner = QueryRunner::new(&*built.tree, query, rays.len())
                         .expect("one thread starts");
                     runner.run(&rays);
                     let misses = runner.closest().iter().filter(|h| h.is_none()).count();

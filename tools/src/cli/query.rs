@@ -10,7 +10,7 @@
 //! pool of `N` threads (see [`crate::runner`]); `--passes N` times N passes after a warm-up
 //! and reports their median. Every combination writes the same bytes.
 
-use raybatch::{AccelKind, AnyAccel, BuildOptions, Ray};
+use raybatch::{AccelKind, BuildOptions, Ray};
 use raybatch_tools::formats::{write_closest, write_occluded};
 
 use crate::args::QueryArgs;
@@ -20,6 +20,7 @@ use crate::json::JsonLine;
 use crate::measure::{Measurement, measure, measure_passes, time_ms};
 use crate::output::Output;
 use crate::progress;
+use crate::runner::Measured;
 use crate::runner::{Engine, Query, QueryKind, QueryRunner};
 
 /// What answering the rays produced.
@@ -65,7 +66,7 @@ pub fn run(args: &QueryArgs) -> Result<(), CliError> {
 
 /// Answers every ray with `tree`, timing as `--passes` asks.
 fn answer<'t>(
-    tree: &'t AnyAccel,
+    tree: &'t dyn Measured,
     build_ms: f64,
     rays: &[Ray],
     args: &QueryArgs,

@@ -12,7 +12,7 @@
 use std::io;
 
 use raybatch::glam::Vec3;
-use raybatch::{AnyAccel, BuildOptions, Hit, Kernel, Mesh, Ray};
+use raybatch::{BuildOptions, Hit, Kernel, Mesh, Ray};
 use rayon::prelude::*;
 
 use crate::args::{RenderArgs, Shade};
@@ -20,6 +20,7 @@ use crate::error::CliError;
 use crate::inputs::load_mesh;
 use crate::output::Output;
 use crate::progress::{self, Job};
+use crate::runner::Measured;
 
 /// Vertical field of view, degrees.
 const FOV_DEGREES: f32 = 35.0;
@@ -112,7 +113,7 @@ struct Pixel {
 }
 
 /// Answers every camera ray: batched in one call, or per ray in parallel, row by row.
-fn trace(tree: &AnyAccel, rays: &[Ray], args: &RenderArgs) -> Result<Vec<Pixel>, CliError> {
+fn trace(tree: &dyn Measured, rays: &[Ray], args: &RenderArgs) -> Result<Vec<Pixel>, CliError> {
     if args.batched {
         progress::step("batched closest hits");
         let mut hits = vec![None; rays.len()];

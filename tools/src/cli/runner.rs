@@ -1,6 +1,6 @@
 //! Answering a whole ray set with one tree: the single place where query engines plug in.
 //!
-//! The tree is an [`AnyAccel`], whatever the structure: the tool picks structures at run time
+//! The tree is a [`Measured`], whatever the structure: the tool picks structures at run time
 //! from [`raybatch::AccelKind`], and a per-ray query through it costs one indirect call, small
 //! next to a traversal.
 //!
@@ -16,13 +16,18 @@
 //! queries on the calling thread and batched ones in rayon's default pool.
 
 use raybatch::{
-    AnyAccel, BatchError, BatchOptions, BatchOrdering, Hit, Interleave, Kernel, PartitionKernel,
-    Ray,
+    BatchError, BatchOptions, BatchOrdering, BatchQueries, Footprint, Hit, Interleave, Kernel,
+    PartitionKernel, Ray, RayQueries,
 };
 use rayon::prelude::*;
 use rayon::{ThreadPool, ThreadPoolBuildError, ThreadPoolBuilder};
 
 use crate::measure::Timed;
+
+/// Any structure the command measures: a catalog kind, a scene, a quantized-vertex tree.
+pub trait Measured: RayQueries + BatchQueries + Footprint + Sync {}
+
+impl<T: RayQueries + BatchQueries + Footprint + Sync> Measured for T {}
 
 /// Closest hit or any hit.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -183,7 +188,7 @@ impl Query {
 
 /// Answers ray sets with one tree and one [`Query`], into buffers it keeps between runs.
 pub struct QueryRunner<'t> {
-    tree: &'t AnyAccel,
+    tree: &'t dyn Measured,
     query: Query,
     /// The pool the query runs in (`None`: the current thread, or rayon's default pool).
     pool: Option<ThreadPool>,
@@ -207,7 +212,7 @@ impl<'t> QueryRunner<'t> {
     /// A runner whose buffers already hold room for `capacity` rays, with its thread pool
     /// started; fails only if the system refuses the threads.
     pub fn new(
-        tree: &'t AnyAccel,
+        tree: &'t dyn Measured,
         query: Query,
         capacity: usize,
     ) -> Result<Self, ThreadPoolBuildError> {
@@ -257,14 +262,14 @@ impl Answers {
     }
 
     /// Answers `rays` on the current thread or pool.
-    fn fill(&mut self, tree: &AnyAccel, query: &Query, rays: &[Ray]) {
+    fn fill(&mut self, tree: &dyn Measured, query: &Query, rays: &[Ray]) {
         match query.kind {
             QueryKind::Closest => self.fill_closest(tree, query, rays),
             QueryKind::Any => self.fill_occluded(tree, query, rays),
         }
     }
 
-    fn fill_closest(&mut self, tree: &AnyAccel, query: &Query, rays: &[Ray]) {
+    fn fill_closest(&mut self, tree: &dyn Measured, query: &Query, rays: &[Ray]) {
         let kernel = query.kernel;
         fill(
             &mut self.closest,
@@ -276,7 +281,7 @@ impl Answers {
         );
     }
 
-    fn fill_occluded(&mut self, tree: &AnyAccel, query: &Query, rays: &[Ray]) {
+    fn fill_occluded(&mut self, tree: &dyn Measured, query: &Query, rays: &[Ray]) {
         let kernel = query.kernel;
         fill(
             &mut self.occluded,

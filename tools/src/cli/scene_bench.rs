@@ -13,8 +13,8 @@
 use std::time::Instant;
 
 use raybatch::glam::Vec3;
-use raybatch::scene::{InstanceDesc, MeshTree, Rigid, Scene};
-use raybatch::{AccelKind, AnyAccel, BatchOrdering, BuildOptions, Footprint, Kernel, Ray};
+use raybatch::scene::{InstanceDesc, Rigid, Scene};
+use raybatch::{AccelKind, BatchOrdering, BuildOptions, Footprint, Kernel, Ray};
 use raybatch_tools::scenes::instanced::{World, WorldRays, large, props, tiles, world_rays, yawed};
 use raybatch_tools::scenes::{self, RaySet, SceneKind};
 
@@ -93,7 +93,6 @@ fn speed_rows(world: &World, rays: usize, table: &mut Table) {
         .expect("the built-in worlds build");
     let build_ms = start.elapsed().as_secs_f64() * 1e3;
     let bounds = world.bounds();
-    let scene = AnyAccel::new(scene);
     for kind in WorldRays::ALL {
         progress::step(format!("instanced: {} {} rays", world.name, kind.name()));
         let set = world_rays(kind, &bounds, rays, 5);
@@ -123,10 +122,11 @@ fn overhead(rays: usize) -> String {
     let bare = AccelKind::DEFAULT
         .build(city.clone(), &options)
         .expect("the city builds");
-    let tree = MeshTree::build(AccelKind::DEFAULT, city, &options).expect("the city builds");
+    let tree = AccelKind::DEFAULT
+        .build(city, &options)
+        .expect("the city builds");
     let one =
         Scene::new(vec![tree], &[InstanceDesc::new(0, Rigid::IDENTITY)]).expect("one instance");
-    let one = AnyAccel::new(one);
     let mut line = format!(
         "Scene overhead, the city ({} triangles) as one instance at the identity vs its bare \
          tree, closest hit on incoherent rays:",
@@ -177,8 +177,8 @@ fn motion(rays: usize) -> String {
         rebuild_s += t.elapsed().as_secs_f64();
     }
     let set: Vec<Ray> = world_rays(WorldRays::Long, &world.bounds(), rays, 8);
-    let after_refit = speed(&AnyAccel::new(refitted), batched(), &set);
-    let after_rebuild = speed(&AnyAccel::new(rebuilt), batched(), &set);
+    let after_refit = speed(&refitted, batched(), &set);
+    let after_rebuild = speed(&rebuilt, batched(), &set);
     let ms = |s: f64| s / FRAMES as f64 * 1e3;
     format!(
         "Moving instances: {} crates all move every frame ({FRAMES} frames). Per frame, \

@@ -1,11 +1,11 @@
 //! What `raybatch bench` times: the ray sets of a scene, the query columns, and timing a
 //! [`Query`] over a ray set (whole, or in consecutive batches) through a [`QueryRunner`].
 
-use raybatch::{AnyAccel, Kernel, Mesh, Ray};
+use raybatch::{Kernel, Mesh, Ray};
 use raybatch_tools::scenes::{self, RaySet, SceneKind};
 
 use crate::measure::{Measurement, measure};
-use crate::runner::{Engine, Query, QueryKind, QueryRunner};
+use crate::runner::{Engine, Measured, Query, QueryKind, QueryRunner};
 
 /// Timed passes over each ray set; the fastest counts.
 pub const PASSES: usize = 2;
@@ -67,13 +67,18 @@ impl RaySets {
 }
 
 /// Best of [`PASSES`] runs of `query` over `rays`, all in one call.
-pub fn time_query(tree: &AnyAccel, query: Query, rays: &[Ray]) -> Measurement {
+pub fn time_query(tree: &dyn Measured, query: Query, rays: &[Ray]) -> Measurement {
     time_in_batches(tree, query, rays, rays.len())
 }
 
 /// Best of [`PASSES`] runs of `query` over `rays`, cut into consecutive batches of `batch`
 /// rays (the last may be shorter), one call each.
-pub fn time_in_batches(tree: &AnyAccel, query: Query, rays: &[Ray], batch: usize) -> Measurement {
+pub fn time_in_batches(
+    tree: &dyn Measured,
+    query: Query,
+    rays: &[Ray],
+    batch: usize,
+) -> Measurement {
     let query = query.with_batch_size(batch);
     let mut runner =
         QueryRunner::new(tree, query, rays.len()).expect("the benchmark's thread pools start");
@@ -81,6 +86,6 @@ pub fn time_in_batches(tree: &AnyAccel, query: Query, rays: &[Ray], batch: usize
 }
 
 /// Mrays/s of `query` over `rays` (see [`time_query`]).
-pub fn speed(tree: &AnyAccel, query: Query, rays: &[Ray]) -> f64 {
+pub fn speed(tree: &dyn Measured, query: Query, rays: &[Ray]) -> f64 {
     time_query(tree, query, rays).mrays_per_s()
 }

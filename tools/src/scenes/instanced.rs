@@ -10,7 +10,7 @@
 use std::collections::HashMap;
 
 use raybatch::glam::{Quat, Vec3};
-use raybatch::scene::{InstanceDesc, MeshTree, Rigid, Scene, SceneError};
+use raybatch::scene::{InstanceDesc, Rigid, Scene, SceneError};
 use raybatch::{Aabb, AccelKind, BuildOptions, Mesh, Ray};
 use rayon::prelude::*;
 
@@ -34,7 +34,7 @@ impl World {
         let trees = self
             .meshes
             .par_iter()
-            .map(|m| MeshTree::build(kind, m.clone(), &BuildOptions::default()))
+            .map(|m| kind.build(m.clone(), &BuildOptions::default()))
             .collect::<Result<Vec<_>, _>>()?;
         Scene::new(trees, &self.instances)
     }

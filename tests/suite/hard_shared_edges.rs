@@ -3,14 +3,12 @@
 //! closed icosphere, and a regression at a corner shared by two triangles. Every structure of
 //! the zoo is compared with the brute-force reference and checked for the expected answer.
 
-mod common;
-
 use std::collections::HashMap;
 
-use common::meshes::{assert_closed_and_outward, edges, icosphere, tri_mesh};
-use common::oracles::{assert_matches_brute_force, closest_ids, unanimous_hit};
-use common::rng::{in_box, seeded};
-use common::zoo::all_structures;
+use crate::common::meshes::{assert_closed_and_outward, edges, icosphere, tri_mesh};
+use crate::common::oracles::{assert_matches_brute_force, closest_ids, unanimous_hit};
+use crate::common::rng::{in_box, seeded};
+use crate::common::zoo::all_structures;
 use glam::Vec3;
 use raybatch::{Kernel, Mesh, Ray};
 

@@ -3,17 +3,15 @@
 //! layers and deforming a mesh keep answers equal to brute force; `locate` inverts global ids;
 //! bad input is a typed error that leaves the scene as it was.
 
-mod common;
-
 use std::sync::Arc;
 
-use common::meshes::icosphere;
-use common::oracles::{all_bits, bits, opt_bits};
-use common::rays::{hard_rays, incoherent};
-use common::rng::{RngExt, seeded};
-use common::scenes::{build_scene, scene_brute_force};
+use crate::common::meshes::icosphere;
+use crate::common::oracles::{all_bits, bits, opt_bits};
+use crate::common::rays::{hard_rays, incoherent};
+use crate::common::rng::{RngExt, seeded};
+use crate::common::scenes::{build_scene, scene_brute_force};
 use glam::{Quat, Vec3};
-use raybatch::scene::{InstanceDesc, MeshTree, Rigid, Scene, SceneError};
+use raybatch::scene::{InstanceDesc, Rigid, Scene, SceneError};
 use raybatch::{
     AccelKind, BatchOptions, BatchQueries, BuildOptions, Kernel, Mesh, MeshError, Ray, RayQueries,
 };
@@ -53,7 +51,7 @@ fn descs_of(scene: &Scene) -> Vec<InstanceDesc> {
 }
 
 fn sphere_rays(count: usize, seed: u64) -> Vec<Ray> {
-    let big = common::meshes::transformed(&icosphere(1), 6.0, glam::DVec3::ZERO);
+    let big = crate::common::meshes::transformed(&icosphere(1), 6.0, glam::DVec3::ZERO);
     incoherent(&big, count, &mut seeded(seed))
 }
 
@@ -64,7 +62,7 @@ fn identity_instance_answers_as_the_bare_tree() {
     rays.extend(incoherent(&mesh, 500, &mut seeded(10)));
     for kind in AccelKind::ALL {
         let bare = kind.build(mesh.clone(), &BuildOptions::default()).unwrap();
-        let tree = MeshTree::build(kind, mesh.clone(), &BuildOptions::default()).unwrap();
+        let tree = kind.build(mesh.clone(), &BuildOptions::default()).unwrap();
         let scene = Scene::new(vec![tree], &[InstanceDesc::new(0, Rigid::IDENTITY)]).unwrap();
         for ray in &rays {
             assert_eq!(
@@ -93,7 +91,9 @@ fn identity_instance_answers_as_the_bare_tree() {
 fn translated_instance_answers_as_the_tree_on_shifted_rays() {
     let mesh = Arc::new(icosphere(2));
     let shift = Vec3::new(4.0, -2.0, 8.0);
-    let tree = MeshTree::build(AccelKind::Bvh4, mesh.clone(), &BuildOptions::default()).unwrap();
+    let tree = AccelKind::Bvh4
+        .build(mesh.clone(), &BuildOptions::default())
+        .unwrap();
     let bare = AccelKind::Bvh4
         .build(mesh.clone(), &BuildOptions::default())
         .unwrap();
@@ -136,7 +136,7 @@ fn moving_instances_keeps_answers_exact() {
     let (meshes, _, mut scene) = row();
     let rays = sphere_rays(400, 12);
     let mut rng = seeded(13);
-    let random_move = |rng: &mut common::rng::StdRng| {
+    let random_move = |rng: &mut crate::common::rng::StdRng| {
         let r = Quat::from_euler(
             glam::EulerRot::XYZ,
             rng.random(),
@@ -213,7 +213,11 @@ fn locate_inverts_global_ids() {
 fn bad_input_is_a_typed_error_and_changes_nothing() {
     let (meshes, descs, mut scene) = row();
     let rays = sphere_rays(100, 16);
-    let tree = || MeshTree::build(AccelKind::Aabb, icosphere(0), &BuildOptions::default()).unwrap();
+    let tree = || {
+        AccelKind::Aabb
+            .build(icosphere(0), &BuildOptions::default())
+            .unwrap()
+    };
     assert_eq!(
         Scene::new(vec![tree()], &[InstanceDesc::new(1, Rigid::IDENTITY)]).unwrap_err(),
         SceneError::NoSuchMesh { mesh: 1, meshes: 1 }
@@ -274,7 +278,9 @@ fn a_triangle_degenerate_at_build_refuses_a_refit_that_gives_it_an_area() {
         vec![[0, 1, 2], [0, 1, 3]],
     )
     .unwrap();
-    let tree = MeshTree::build(AccelKind::Aabb, flat, &BuildOptions::default()).unwrap();
+    let tree = AccelKind::Aabb
+        .build(flat, &BuildOptions::default())
+        .unwrap();
     let mut scene = Scene::new(vec![tree], &[InstanceDesc::new(0, Rigid::IDENTITY)]).unwrap();
     let lifted = vec![Vec3::ZERO, Vec3::X, Vec3::Y, Vec3::new(2.0, 0.0, 1.0)];
     assert_eq!(
@@ -285,30 +291,4 @@ fn a_triangle_degenerate_at_build_refuses_a_refit_that_gives_it_an_area() {
         .cast_ray(&Ray::new(Vec3::new(0.2, 0.2, -1.0), Vec3::Z))
         .unwrap();
     assert_eq!(hit.triangle, 0);
-}
-
-/// A scene over one concrete tree type (no enum dispatch) answers as brute force too.
-#[test]
-fn a_scene_of_one_tree_type() {
-    let meshes = vec![icosphere(2)];
-    let descs: Vec<InstanceDesc> = (0..6)
-        .map(|i| {
-            let r = Quat::from_rotation_x(i as f32 * 0.9);
-            InstanceDesc::new(
-                0,
-                Rigid::new(r, Vec3::new(i as f32 - 2.5, 0.5, 0.0)).unwrap(),
-            )
-        })
-        .collect();
-    let tree = raybatch::AabbTree::build(meshes[0].clone(), &BuildOptions::default()).unwrap();
-    let scene: Scene<raybatch::AabbTree> = Scene::new(vec![tree], &descs).unwrap();
-    let options = BatchOptions::default().with_min_batch(0);
-    let rays = sphere_rays(300, 17);
-    let mut hits = vec![None; rays.len()];
-    scene.cast_rays_with(&rays, &mut hits, &options).unwrap();
-    for (ray, hit) in rays.iter().zip(&hits) {
-        let r = scene_brute_force(&meshes, &descs, ray, Kernel::Watertight, u32::MAX);
-        assert_eq!(opt_bits(scene.cast_ray(ray)), opt_bits(r.closest));
-        assert_eq!(opt_bits(*hit), opt_bits(r.closest));
-    }
 }

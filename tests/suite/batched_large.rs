@@ -2,19 +2,17 @@
 //! 100,000 hard and random rays over several structures and option combinations, and a million
 //! incoherent rays on the Stanford bunny with the default options.
 
-mod common;
-
 use std::sync::Arc;
 
-use common::batch::{
+use crate::common::batch::{
     Combo, GARBAGE, Threads, all_combos, batched_closest, batched_hits, batched_occluded,
     compare_closest, compare_hits, compare_occluded, ok, single_ray_answers, spread_combos,
 };
-use common::meshes::{bunny, icosphere, icosphere_with_duplicates};
-use common::oracles::{HitBits, opt_bits};
-use common::rays::{hard_rays, incoherent, with_range_variant};
-use common::rng::{in_cube, seeded};
-use common::zoo::{LEAF_SIZES, all_structures, build};
+use crate::common::meshes::{bunny, icosphere, icosphere_with_duplicates};
+use crate::common::oracles::{HitBits, opt_bits};
+use crate::common::rays::{hard_rays, incoherent, with_range_variant};
+use crate::common::rng::{in_cube, seeded};
+use crate::common::zoo::{LEAF_SIZES, all_structures, build};
 use raybatch::{
     AabbTree, AccelKind, BatchQueries, BuildOptions, ChildOrdering, Kernel, RayQueries,
 };
@@ -46,7 +44,7 @@ fn hundred_thousand_rays() {
     for (n, t) in picks.into_iter().enumerate() {
         let tree = &zoo[t];
         let kernel = Kernel::ALL[n % 2];
-        let exp = single_ray_answers(&tree.accel, &rays, kernel);
+        let exp = single_ray_answers(&*tree.accel, &rays, kernel);
         let mut combos: Vec<Combo> = spread_combos(&all, t, 32)
             .into_iter()
             .filter(|c| c.kernel == kernel && c.max_chunk != 1)
@@ -109,7 +107,7 @@ fn origin_order_on_a_large_mesh() {
     for kind in [AccelKind::Grid, AccelKind::Hash, AccelKind::Kd] {
         let name = format!("{} over a 1.3M-triangle icosphere", kind.name());
         let tree = build(&mesh, kind, &BuildOptions::default(), name);
-        let exp = single_ray_answers(&tree.accel, &rays, Kernel::Watertight);
+        let exp = single_ray_answers(&*tree.accel, &rays, Kernel::Watertight);
         let combos = all.iter().filter(|c| c.kernel == Kernel::Watertight);
         let sequential = combos
             .clone()

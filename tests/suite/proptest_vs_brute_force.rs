@@ -2,11 +2,9 @@
 //! exactly like the brute-force reference: same closest hit (triangle id and the bits of `t`,
 //! `u`, `v`), same occlusion, same hits (`all_hits`, and `for_each_hit_with` for both kernels).
 
-mod common;
-
-use common::oracles::{bits, closest_is_first_of_all_hits, compare_all, describe};
-use common::strategies::{RaySpec, aimed_ray_spec, mesh_strategy, ray_spec};
-use common::zoo::all_structures;
+use crate::common::oracles::{bits, closest_is_first_of_all_hits, compare_all, describe};
+use crate::common::strategies::{RaySpec, aimed_ray_spec, mesh_strategy, ray_spec};
+use crate::common::zoo::all_structures;
 use proptest::prelude::*;
 use raybatch::query::brute_force;
 use raybatch::{Kernel, Mesh};

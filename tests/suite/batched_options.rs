@@ -8,18 +8,16 @@
 //! slices of the wrong length are an error, not a panic. (Invalid rays, ties and ray order:
 //! `batched_rays.rs`; large batches: `batched_large.rs`; random meshes: `batched_proptest.rs`.)
 
-mod common;
-
 use std::sync::Mutex;
 
-use common::batch::{
+use crate::common::batch::{
     Combo, GARBAGE, THREADS, all_combos, check_zoo, compare_closest, compare_hits,
     compare_occluded, ok, pool, single_ray_answers, spread_combos,
 };
-use common::meshes::{icosphere, icosphere_all_duplicated, icosphere_with_duplicates};
-use common::oracles::bits;
-use common::rays::{every_nth, hard_rays};
-use common::zoo::all_structures;
+use crate::common::meshes::{icosphere, icosphere_all_duplicated, icosphere_with_duplicates};
+use crate::common::oracles::bits;
+use crate::common::rays::{every_nth, hard_rays};
+use crate::common::zoo::all_structures;
 use raybatch::{BatchError, BatchOrdering, Interleave, Kernel, PartitionKernel, Ray};
 
 /// Every structure with every one of the 2304 combinations of kernel, batch ordering, partition
@@ -65,7 +63,7 @@ fn default_entry_points_match_single_ray() {
     let mesh = icosphere_with_duplicates(2);
     let rays = hard_rays(&mesh, 3);
     for tree in all_structures(&mesh) {
-        let exp = single_ray_answers(&tree.accel, &rays, Kernel::Watertight);
+        let exp = single_ray_answers(&*tree.accel, &rays, Kernel::Watertight);
         for threads in [None, Some(1), Some(2), Some(3)] {
             let what = format!("{} default options, pool {threads:?}", tree.name);
             let run = || {
@@ -74,8 +72,11 @@ fn default_entry_points_match_single_ray() {
                 let mut occ: Vec<bool> = (0..rays.len()).map(|i| i % 3 == 0).collect();
                 tree.accel.occluded_batch(&rays, &mut occ).unwrap();
                 let sink = Mutex::new(Vec::new());
+                let defaults = raybatch::BatchOptions::default();
                 tree.accel
-                    .for_each_hit_batch(&rays, |i, h| sink.lock().unwrap().push((i, bits(&h))));
+                    .for_each_hit_batch_with(&rays, &defaults, &|i, h| {
+                        sink.lock().unwrap().push((i, bits(&h)))
+                    });
                 let mut all = sink.into_inner().unwrap();
                 all.sort_unstable();
                 (hits, occ, all)

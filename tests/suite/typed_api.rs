@@ -1,25 +1,19 @@
 //! The typed API against the dynamic one. The zoo reaches every structure through `AnyAccel`;
-//! this checks that each kind's concrete type, queried through the generic traits
-//! (`RayQueries`, `BatchQueries`, `Footprint`, default-kernel entry points included), answers
-//! bit for bit like the `AnyAccel` of the same kind and options. Together with the zoo's
+//! this checks that each kind's concrete tree (reached with `AnyAccel::run`), queried through
+//! its own impls of the query traits (`RayQueries`, `BatchQueries`, `Footprint`,
+//! default-kernel entry points included), answers bit for bit like the `AnyAccel`. Together with the zoo's
 //! comparisons with brute force, the typed methods are held to the same reference.
-
-mod common;
 
 use std::sync::{Arc, Mutex};
 
-use common::meshes::icosphere_with_duplicates;
-use common::oracles::{HitBits, all_bits, bits, opt_bits};
-use common::rays::hard_rays;
-use common::zoo::LEAF_SIZES;
-use raybatch::permuted::Permuted;
-use raybatch::zbt::{HybridOptions, ZbtOptions};
+use crate::common::meshes::icosphere_with_duplicates;
+use crate::common::oracles::{HitBits, all_bits, bits, opt_bits};
+use crate::common::rays::hard_rays;
+use crate::common::zoo::LEAF_SIZES;
 use raybatch::{
-    AabbTree, Accel, AccelKind, AnyAccel, BatchOptions, BatchOrdering, BatchQueries, BuildOptions,
-    ChildOrdering, Footprint, Hit, HybridTree, Kernel, Mesh, QuantizedAabbTree, QuantizedWideTree,
-    QuantizedWideTree8, Ray, RayQueries, WideTree, WideTree8, ZeroByteTree,
+    AccelKind, AnyAccel, BatchOptions, BatchOrdering, BatchQueries, BuildOptions, ChildOrdering,
+    Footprint, Hit, Kernel, KindTask, Ray, RayQueries, Structure,
 };
-use raybatch::{GridOptions, KdTree, SpatialHash, UniformGrid};
 
 /// Every hit of a batch as sorted `(ray index, hit bits)`.
 fn sorted_batch_hits(each: impl FnOnce(&(dyn Fn(usize, Hit) + Sync))) -> Vec<(usize, HitBits)> {
@@ -31,7 +25,7 @@ fn sorted_batch_hits(each: impl FnOnce(&(dyn Fn(usize, Hit) + Sync))) -> Vec<(us
 }
 
 /// Compares every query of `typed` (through the generic traits) with `any`, bit for bit.
-fn compare_typed<T: Accel + Footprint>(
+fn compare_typed<T: RayQueries + BatchQueries + Footprint>(
     name: &str,
     typed: &T,
     any: &AnyAccel,
@@ -83,9 +77,9 @@ fn compare_typed<T: Accel + Footprint>(
         }
         for kernel in Kernel::ALL {
             let mut typed_each = Vec::new();
-            RayQueries::for_each_hit_with(typed, ray, kernel, |h| typed_each.push(bits(&h)));
+            RayQueries::for_each_hit_with(typed, ray, kernel, &mut |h| typed_each.push(bits(&h)));
             let mut any_each = Vec::new();
-            any.for_each_hit_with(ray, kernel, |h| any_each.push(bits(&h)));
+            any.for_each_hit_with(ray, kernel, &mut |h| any_each.push(bits(&h)));
             let got = (
                 opt_bits(RayQueries::cast_ray_with(typed, ray, kernel)),
                 RayQueries::occluded_with(typed, ray, kernel),
@@ -152,8 +146,22 @@ fn compare_typed<T: Accel + Footprint>(
     Ok(())
 }
 
-/// Every kind, leaf size and ordering: the concrete type matches its `AnyAccel`. A kind added
-/// to `AccelKind` makes the `match` below fail to compile until its concrete type is listed.
+/// Compares the concrete tree inside an [`AnyAccel`] with the `AnyAccel` itself.
+struct CompareTyped<'a> {
+    name: &'a str,
+    any: &'a AnyAccel,
+    rays: &'a [Ray],
+}
+
+impl KindTask for CompareTyped<'_> {
+    type Output = Result<(), String>;
+    fn run<A: Structure>(self, kind: AccelKind, typed: &A) -> Self::Output {
+        assert_eq!(kind, self.any.kind(), "{}", self.name);
+        compare_typed(self.name, typed, self.any, self.rays)
+    }
+}
+
+/// Every kind, leaf size and ordering: the concrete tree answers as its `AnyAccel` does.
 #[test]
 fn typed_queries_match_any_accel() {
     let mesh = Arc::new(icosphere_with_duplicates(1));
@@ -167,67 +175,12 @@ fn typed_queries_match_any_accel() {
                     .with_ordering(ordering);
                 let name = format!("{}/leaf{leaf}/{}", kind.name(), ordering.name());
                 let any = kind.build(mesh.clone(), &options).unwrap();
-                let mesh: Arc<Mesh> = mesh.clone();
-                let result = match kind {
-                    AccelKind::Aabb => {
-                        let typed: AabbTree = AabbTree::build(mesh, &options).unwrap();
-                        compare_typed(&name, &typed, &any, &rays)
-                    }
-                    AccelKind::Quantized => {
-                        let typed = QuantizedAabbTree::build(mesh, &options).unwrap();
-                        compare_typed(&name, &typed, &any, &rays)
-                    }
-                    AccelKind::Bvh4 => {
-                        let typed = WideTree::build(mesh, &options).unwrap();
-                        compare_typed(&name, &typed, &any, &rays)
-                    }
-                    AccelKind::Bvh8 => {
-                        let typed = WideTree8::build(mesh, &options).unwrap();
-                        compare_typed(&name, &typed, &any, &rays)
-                    }
-                    AccelKind::Bvh4q => {
-                        let typed = QuantizedWideTree::build(mesh, &options).unwrap();
-                        compare_typed(&name, &typed, &any, &rays)
-                    }
-                    AccelKind::Bvh8q => {
-                        let typed = QuantizedWideTree8::build(mesh, &options).unwrap();
-                        compare_typed(&name, &typed, &any, &rays)
-                    }
-                    AccelKind::Bvh8qb => {
-                        let typed = QuantizedWideTree8::build_with_blocks(mesh, &options).unwrap();
-                        compare_typed(&name, &typed, &any, &rays)
-                    }
-                    AccelKind::Zbt | AccelKind::ZbtNoCache => {
-                        let zbt = ZbtOptions {
-                            box_cache: kind == AccelKind::Zbt,
-                            ..ZbtOptions::from(&options)
-                        };
-                        let (tree, perm) = ZeroByteTree::build((*mesh).clone(), &zbt).unwrap();
-                        compare_typed(&name, &Permuted::new(tree, perm), &any, &rays)
-                    }
-                    AccelKind::Hybrid => {
-                        let hybrid = HybridOptions {
-                            zbt: ZbtOptions::from(&options),
-                            ..HybridOptions::default()
-                        };
-                        let (tree, perm) = HybridTree::build((*mesh).clone(), &hybrid).unwrap();
-                        compare_typed(&name, &Permuted::new(tree, perm), &any, &rays)
-                    }
-                    AccelKind::Grid => {
-                        let typed = UniformGrid::build(mesh, &GridOptions::default()).unwrap();
-                        compare_typed(&name, &typed, &any, &rays)
-                    }
-                    AccelKind::Kd => {
-                        let typed = KdTree::build(mesh, leaf).unwrap();
-                        compare_typed(&name, &typed, &any, &rays)
-                    }
-                    AccelKind::Hash => {
-                        let options = SpatialHash::default_options();
-                        let typed = SpatialHash::build(mesh, &options).unwrap();
-                        compare_typed(&name, &typed, &any, &rays)
-                    }
+                let task = CompareTyped {
+                    name: &name,
+                    any: &any,
+                    rays: &rays,
                 };
-                if let Err(e) = result {
+                if let Err(e) = any.run(task) {
                     panic!("{e}");
                 }
             }

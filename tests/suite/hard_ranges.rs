@@ -3,12 +3,10 @@
 //! short excluded), unbounded and huge `tmax`, extreme direction lengths. Every structure of
 //! the zoo is compared with the brute-force reference and checked for the expected answer.
 
-mod common;
-
-use common::meshes::{icosphere, tri_mesh};
-use common::oracles::{assert_matches_brute_force, unanimous_hit};
-use common::rng::{RngExt, in_cube, seeded};
-use common::zoo::all_structures;
+use crate::common::meshes::{icosphere, tri_mesh};
+use crate::common::oracles::{assert_matches_brute_force, unanimous_hit};
+use crate::common::rng::{RngExt, in_cube, seeded};
+use crate::common::zoo::all_structures;
 use glam::Vec3;
 use raybatch::query::brute_force;
 use raybatch::{Kernel, Mesh, Ray};

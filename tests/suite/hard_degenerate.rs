@@ -3,14 +3,12 @@
 //! structures that miss everything). Every structure of the zoo is compared with the
 //! brute-force reference and checked for the expected answer.
 
-mod common;
-
-use common::meshes::tri_mesh;
-use common::oracles::{assert_matches_brute_force, assert_misses_everywhere, unanimous_hit};
-use common::rng::{in_cube, seeded};
-use common::zoo::all_structures;
+use crate::common::meshes::tri_mesh;
+use crate::common::oracles::{assert_matches_brute_force, assert_misses_everywhere, unanimous_hit};
+use crate::common::rng::{in_cube, seeded};
+use crate::common::zoo::all_structures;
 use glam::Vec3;
-use raybatch::{Footprint, Kernel, Mesh, Ray};
+use raybatch::{Kernel, Mesh, Ray};
 
 #[test]
 fn degenerate_triangles_are_never_hit() {

@@ -1,11 +1,9 @@
 //! Watertightness: no ray from inside a closed mesh may escape under the watertight kernel,
 //! whatever structure answers it, even aimed exactly at shared vertices and edges.
 
-mod common;
-
-use common::meshes::{assert_closed_and_outward, edges, icosphere};
-use common::rng::{RngExt, StdRng, in_cube, seeded};
-use common::zoo::structures_with;
+use crate::common::meshes::{assert_closed_and_outward, edges, icosphere};
+use crate::common::rng::{RngExt, StdRng, in_cube, seeded};
+use crate::common::zoo::structures_with;
 use glam::Vec3;
 use raybatch::query::brute_force;
 use raybatch::{AccelKind, ChildOrdering, Kernel, Mesh, Ray};

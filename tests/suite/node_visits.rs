@@ -3,12 +3,11 @@
 //! none for a ray that misses the structure's bounds, and more for a ray that crosses the whole
 //! mesh than for the same ray stopped before it.
 
-mod common;
-
 use std::sync::Arc;
 
-use common::meshes::icosphere;
-use common::oracles::opt_bits;
+use crate::common::meshes::icosphere;
+use crate::common::oracles::opt_bits;
+use raybatch::RayQueries;
 use raybatch::glam::Vec3;
 use raybatch::{AccelKind, BuildOptions, Kernel, Ray};
 

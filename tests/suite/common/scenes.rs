@@ -7,7 +7,7 @@ use std::sync::Arc;
 use glam::{Quat, Vec3};
 use proptest::prelude::*;
 use raybatch::query::brute_force;
-use raybatch::scene::{InstanceDesc, MeshTree, Rigid, Scene};
+use raybatch::scene::{InstanceDesc, Rigid, Scene};
 use raybatch::{AccelKind, BuildOptions, Hit, Kernel, Mesh, Ray};
 
 /// The brute-force answers of a scene for one ray and kernel, in global ids.
@@ -57,12 +57,9 @@ pub fn build_scene(meshes: &[Mesh], kinds: &[AccelKind], instances: &[InstanceDe
         .iter()
         .enumerate()
         .map(|(i, m)| {
-            MeshTree::build(
-                kinds[i % kinds.len()],
-                Arc::new(m.clone()),
-                &BuildOptions::default(),
-            )
-            .unwrap()
+            kinds[i % kinds.len()]
+                .build(Arc::new(m.clone()), &BuildOptions::default())
+                .unwrap()
         })
         .collect();
     Scene::new(trees, instances).unwrap()

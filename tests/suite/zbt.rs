@@ -3,16 +3,14 @@
 //! reordered mesh, per ray and batched; the permutation and the unpacked mesh; the limits, at
 //! and past them, with the mesh handed back; the box cache shared by several trees.
 
-mod common;
-
-use common::meshes::{bunny, icosphere_all_duplicated, icosphere_with_duplicates, tri_mesh};
-use common::oracles::{HitBits, all_bits, opt_bits};
-use common::rays::hard_rays;
+use crate::common::meshes::{bunny, icosphere_all_duplicated, icosphere_with_duplicates, tri_mesh};
+use crate::common::oracles::{HitBits, all_bits, opt_bits};
+use crate::common::rays::hard_rays;
 use glam::Vec3;
 use raybatch::query::brute_force;
 use raybatch::zbt::{HybridOptions, MAX_TRIANGLES, MAX_VERTICES, ZbtError, ZbtOptions};
 use raybatch::{
-    Accel, BatchOptions, BatchQueries, Bvh, Footprint, HybridTree, Kernel, Mesh, Ray, RayQueries,
+    BatchOptions, BatchQueries, Bvh, Footprint, HybridTree, Kernel, Mesh, Ray, RayQueries,
     ZeroByteTree,
 };
 
@@ -52,7 +50,12 @@ fn zbt_options() -> Vec<ZbtOptions> {
 /// small takes the single-ray path); the stream all the way down; the stream with the packet
 /// walk finishing lists of 2-7 rays (the default engine); and lists below 1,000 rays finished
 /// as packets from 5 rays up to 8 and one ray at a time otherwise.
-fn check_against_brute_force<A: Accel>(name: &str, tree: &A, mesh: &Mesh, rays: &[Ray]) {
+fn check_against_brute_force<A: RayQueries + BatchQueries>(
+    name: &str,
+    tree: &A,
+    mesh: &Mesh,
+    rays: &[Ray],
+) {
     let mut closest = Vec::with_capacity(rays.len());
     let mut occluded = Vec::with_capacity(rays.len());
     let mut all = Vec::with_capacity(rays.len());
@@ -94,7 +97,7 @@ fn check_against_brute_force<A: Accel>(name: &str, tree: &A, mesh: &Mesh, rays: 
         tree.occluded_batch_with(rays, &mut batch_occluded, &options)
             .unwrap();
         let batch_all = std::sync::Mutex::new(vec![Vec::new(); rays.len()]);
-        tree.for_each_hit_batch_with(rays, &options, |i, hit| {
+        tree.for_each_hit_batch_with(rays, &options, &|i, hit| {
             batch_all.lock().unwrap()[i].push(hit)
         });
         let batch_all = batch_all.into_inner().unwrap();

@@ -8,6 +8,7 @@
 use std::process::Command;
 
 use raybatch::{AccelKind, BatchOptions, BuildOptions, Mesh, Ray};
+use raybatch::{BatchQueries, RayQueries};
 
 /// Set in the child process.
 const CHILD_ENV: &str = "RAYBATCH_NO_THREADS_CHILD";
@@ -16,7 +17,12 @@ const CHILD_ENV: &str = "RAYBATCH_NO_THREADS_CHILD";
 fn builds_and_batches_without_threads() {
     let exe = std::env::current_exe().expect("the test binary's path");
     let output = Command::new(exe)
-        .args(["--exact", "child", "--test-threads=1", "--nocapture"])
+        .args([
+            "--exact",
+            "no_threads::child",
+            "--test-threads=1",
+            "--nocapture",
+        ])
         .env(CHILD_ENV, "1")
         .env("RUST_MIN_STACK", (1u64 << 50).to_string())
         .output()

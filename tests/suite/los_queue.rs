@@ -2,11 +2,9 @@
 //! equal the per-ray answers for every ticket; frames follow each other with the queue's
 //! memory reused; a full queue, an unflushed or a stale ticket are typed errors.
 
-mod common;
-
-use common::meshes::icosphere;
-use common::rng::{in_cube, seeded};
-use common::scenes::build_scene;
+use crate::common::meshes::icosphere;
+use crate::common::rng::{in_cube, seeded};
+use crate::common::scenes::build_scene;
 use glam::Vec3;
 use raybatch::scene::{InstanceDesc, Rigid};
 use raybatch::users::{LosQueue, QueueError, Ticket};

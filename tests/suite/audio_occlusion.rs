@@ -3,11 +3,9 @@
 //! per crossing with the largest loss of a crossing's triangles; "first N" limits; batched
 //! equals per ray bit for bit; bad material tables are typed errors.
 
-mod common;
-
-use common::meshes::{edges, icosphere, tri_mesh};
-use common::rng::{in_cube, seeded};
-use common::scenes::build_scene;
+use crate::common::meshes::{edges, icosphere, tri_mesh};
+use crate::common::rng::{in_cube, seeded};
+use crate::common::scenes::build_scene;
 use glam::{Quat, Vec3};
 use raybatch::scene::{InstanceDesc, Rigid};
 use raybatch::users::{AudioError, Materials, Occlusion, occlusion, occlusion_batch};

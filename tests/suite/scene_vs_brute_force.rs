@@ -4,21 +4,19 @@
 //! carried into mesh space by the documented transform (`Rigid::ray_to_mesh`); the tie rule
 //! applies to global ids (lowest instance, then lowest triangle).
 
-mod common;
-
 use std::sync::Mutex;
 
-use common::oracles::{HitBits, all_bits, bits, opt_bits};
-use common::rays::invalid_rays;
-use common::scenes::{build_scene, instances, scene_brute_force, world_mesh};
-use common::strategies::{RaySpec, mesh_strategy, ray_spec};
+use crate::common::oracles::{HitBits, all_bits, bits, opt_bits};
+use crate::common::rays::invalid_rays;
+use crate::common::scenes::{build_scene, instances, scene_brute_force, world_mesh};
+use crate::common::strategies::{RaySpec, mesh_strategy, ray_spec};
 use glam::Vec3;
 use proptest::prelude::*;
 use raybatch::scene::{InstanceDesc, Rigid};
 use raybatch::{AccelKind, BatchOptions, BatchQueries, Kernel, Mesh, Ray, RayQueries};
 
 /// Compares every query of `accel` (a scene or a filtered view) with the oracle on `rays`.
-fn compare<A: BatchQueries>(
+fn compare<A: RayQueries + BatchQueries>(
     accel: &A,
     meshes: &[Mesh],
     descs: &[InstanceDesc],
@@ -43,7 +41,7 @@ fn compare<A: BatchQueries>(
                 return Err(format!("{kernel:?} occluded differs for {ray:?}"));
             }
             let mut each = Vec::new();
-            accel.for_each_hit_with(ray, kernel, |h| each.push(bits(&h)));
+            accel.for_each_hit_with(ray, kernel, &mut |h| each.push(bits(&h)));
             each.sort_unstable();
             let mut expected = all_bits(&r.all);
             expected.sort_unstable();
@@ -64,7 +62,7 @@ fn compare<A: BatchQueries>(
             .occluded_batch_with(rays, &mut occluded, &options)
             .unwrap();
         let all = Mutex::new(Vec::<(usize, HitBits)>::new());
-        accel.for_each_hit_batch_with(rays, &options, |i, h| {
+        accel.for_each_hit_batch_with(rays, &options, &|i, h| {
             all.lock().unwrap().push((i, bits(&h)))
         });
         let mut all = all.into_inner().unwrap();
@@ -195,7 +193,7 @@ proptest! {
 /// instance (lower global id), per ray and batched; `resolve` names the instance.
 #[test]
 fn ties_between_instances_go_to_the_lower_instance() {
-    let meshes = vec![common::meshes::icosphere(1)];
+    let meshes = vec![crate::common::meshes::icosphere(1)];
     let at = Rigid::from_translation(Vec3::new(0.5, 0.0, 0.0)).unwrap();
     let descs = vec![InstanceDesc::new(0, at), InstanceDesc::new(0, at)];
     let scene = build_scene(&meshes, &[AccelKind::Bvh4], &descs);

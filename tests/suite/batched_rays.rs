@@ -4,16 +4,14 @@
 //! triangles (the lowest id wins every tie) and shuffled batches (answers do not depend on the
 //! order of the rays), for every structure of the zoo.
 
-mod common;
-
-use common::batch::{
+use crate::common::batch::{
     all_combos, batched_closest, batched_hits, batched_occluded, check_combo, check_shuffled,
     compare_closest, kernel_index, ok, single_ray_answers_both, spread_combos,
 };
-use common::meshes::{icosphere_all_duplicated, icosphere_with_duplicates};
-use common::oracles::opt_bits;
-use common::rays::{every_nth, hard_rays, invalid_rays};
-use common::zoo::all_structures;
+use crate::common::meshes::{icosphere_all_duplicated, icosphere_with_duplicates};
+use crate::common::oracles::opt_bits;
+use crate::common::rays::{every_nth, hard_rays, invalid_rays};
+use crate::common::zoo::all_structures;
 use raybatch::query::brute_force;
 use raybatch::{Hit, Kernel, Ray};
 
@@ -34,7 +32,7 @@ fn invalid_rays_miss() {
     let all = all_combos(1, 0);
     for rays in [invalid.clone(), mixed] {
         for (t, tree) in zoo.iter().enumerate() {
-            let expected = single_ray_answers_both(&tree.accel, &rays);
+            let expected = single_ray_answers_both(&*tree.accel, &rays);
             for combo in spread_combos(&all, t, 32) {
                 ok(check_combo(tree, &rays, &expected, &combo));
                 let closest = batched_closest(tree, &rays, &combo).unwrap();
@@ -63,15 +61,15 @@ fn rays_outside_the_box_answer_as_one_ray_does() {
     let mesh = icosphere_with_duplicates(1);
     let bounds = mesh.bounds();
     let (center, extent) = (bounds.center(), bounds.extent());
-    let mut rng = common::rng::seeded(41);
+    let mut rng = crate::common::rng::seeded(41);
     let invalid = invalid_rays();
     let rays: Vec<Ray> = (0..3_000)
         .map(|i| {
             if i % 50 == 0 {
                 return invalid[i / 50 % invalid.len()];
             }
-            let origin = center + extent * common::rng::in_cube(&mut rng, 2.0);
-            let target = center + extent * common::rng::in_cube(&mut rng, 0.8);
+            let origin = center + extent * crate::common::rng::in_cube(&mut rng, 2.0);
+            let target = center + extent * crate::common::rng::in_cube(&mut rng, 0.8);
             let tmax = if i % 3 == 0 { 0.4 } else { f32::INFINITY };
             Ray::with_range(origin, target - origin, 0.0, tmax)
         })
@@ -79,7 +77,7 @@ fn rays_outside_the_box_answer_as_one_ray_does() {
     let zoo = all_structures(&mesh);
     let all = all_combos(1, 0);
     for (t, tree) in zoo.iter().enumerate() {
-        let expected = single_ray_answers_both(&tree.accel, &rays);
+        let expected = single_ray_answers_both(&*tree.accel, &rays);
         let misses = expected[0].closest.iter().filter(|h| h.is_none()).count();
         assert!(
             misses > 500 && misses < 2_500,

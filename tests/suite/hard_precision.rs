@@ -3,12 +3,10 @@
 //! structure of the zoo is compared with the brute-force reference and checked for the
 //! expected answer.
 
-mod common;
-
-use common::meshes::{assert_closed_and_outward, edges, icosphere, transformed, tri_mesh};
-use common::oracles::{assert_matches_brute_force, unanimous_hit};
-use common::rng::{in_cube, seeded};
-use common::zoo::all_structures;
+use crate::common::meshes::{assert_closed_and_outward, edges, icosphere, transformed, tri_mesh};
+use crate::common::oracles::{assert_matches_brute_force, unanimous_hit};
+use crate::common::rng::{in_cube, seeded};
+use crate::common::zoo::all_structures;
 use glam::{DVec3, Vec3};
 use raybatch::{Kernel, Ray};
 

@@ -2,14 +2,12 @@
 //! sequential build of the same options) and geometrically shrinking triangles that make the
 //! tree deep. Every structure is compared with the brute-force reference.
 
-mod common;
-
 use std::sync::Arc;
 
-use common::meshes::icosphere;
-use common::oracles::assert_matches_brute_force;
-use common::rng::{RngExt, in_box, in_cube, seeded};
-use common::zoo::{all_structures, build, structures_with};
+use crate::common::meshes::icosphere;
+use crate::common::oracles::assert_matches_brute_force;
+use crate::common::rng::{RngExt, in_box, in_cube, seeded};
+use crate::common::zoo::{all_structures, build, structures_with};
 use glam::Vec3;
 use raybatch::{AccelKind, BuildOptions, ChildOrdering, Mesh, Ray};
 

@@ -3,13 +3,12 @@
 //! (the wide trees, the binary trees traced alone) and the workspace a thread makes on its
 //! first query must fit in it.
 
-mod common;
-
-use common::meshes::bunny;
-use common::oracles::{HitBits, opt_bits};
-use common::rays::incoherent;
-use common::rng::seeded;
+use crate::common::meshes::bunny;
+use crate::common::oracles::{HitBits, opt_bits};
+use crate::common::rays::incoherent;
+use crate::common::rng::seeded;
 use raybatch::{AccelKind, AnyAccel, BatchOptions, BuildOptions, Ray};
+use raybatch::{BatchQueries, RayQueries};
 
 /// The stack of the small thread.
 const SMALL_STACK: usize = 64 * 1024;

@@ -3,13 +3,11 @@
 //! random batches of rays (some with `tmin > 0`, some invalid) and random option combinations,
 //! for every structure of the zoo; in order and shuffled.
 
-mod common;
-
-use common::batch::{check_shuffled, check_zoo, combo_strategy};
-use common::oracles::describe;
-use common::rays::invalid_rays;
-use common::strategies::{RaySpec, aimed_ray_spec, mesh_strategy, ray_spec};
-use common::zoo::{ZOO_SIZE, all_structures};
+use crate::common::batch::{check_shuffled, check_zoo, combo_strategy};
+use crate::common::oracles::describe;
+use crate::common::rays::invalid_rays;
+use crate::common::strategies::{RaySpec, aimed_ray_spec, mesh_strategy, ray_spec};
+use crate::common::zoo::{ZOO_SIZE, all_structures};
 use proptest::prelude::*;
 use raybatch::{Mesh, Ray};
 

@@ -5,7 +5,7 @@
 use raybatch::query::brute_force;
 use raybatch::{Hit, Kernel, Mesh, Ray};
 
-use super::zoo::Structure;
+use super::zoo::Built;
 
 /// A hit as exact bits: (triangle, t, u, v).
 pub type HitBits = (u32, u32, u32, u32);
@@ -49,7 +49,7 @@ impl Reference {
 /// Compares every query of one structure with the brute-force reference on one ray, bit for bit:
 /// closest hit (id, `t`, `u`, `v`), occlusion and every hit, for both kernels, plus the
 /// default-kernel methods. Returns a description of the first difference.
-pub fn compare_structure(t: &Structure, reference: &Reference) -> Result<(), String> {
+pub fn compare_structure(t: &Built, reference: &Reference) -> Result<(), String> {
     let name = &t.name;
     let ray = &reference.ray;
     for (kernel, expected, expected_occ, expected_all) in &reference.answers {
@@ -104,7 +104,7 @@ pub fn compare_structure(t: &Structure, reference: &Reference) -> Result<(), Str
 }
 
 /// [`compare_structure`] for every structure (brute force evaluated once).
-pub fn compare_all(mesh: &Mesh, zoo: &[Structure], ray: &Ray) -> Result<(), String> {
+pub fn compare_all(mesh: &Mesh, zoo: &[Built], ray: &Ray) -> Result<(), String> {
     assert_eq!(Kernel::ALL[0], Kernel::Watertight);
     let reference = Reference::new(mesh, ray);
     zoo.iter()
@@ -113,7 +113,7 @@ pub fn compare_all(mesh: &Mesh, zoo: &[Structure], ray: &Ray) -> Result<(), Stri
 
 /// [`compare_all`], panicking with the difference.
 #[track_caller]
-pub fn assert_matches_brute_force(mesh: &Mesh, zoo: &[Structure], ray: &Ray) {
+pub fn assert_matches_brute_force(mesh: &Mesh, zoo: &[Built], ray: &Ray) {
     if let Err(e) = compare_all(mesh, zoo, ray) {
         panic!("{e}\nmesh: {}", describe(mesh));
     }
@@ -158,7 +158,7 @@ pub fn closest_ids(mesh: &Mesh, ray: &Ray) -> Vec<u32> {
 
 /// Every structure's watertight closest hit, checked to be the same bits for all of them.
 #[track_caller]
-pub fn unanimous_hit(zoo: &[Structure], ray: &Ray) -> Option<Hit> {
+pub fn unanimous_hit(zoo: &[Built], ray: &Ray) -> Option<Hit> {
     let first = zoo[0].accel.cast_ray_with(ray, Kernel::Watertight);
     for t in zoo {
         let h = t.accel.cast_ray_with(ray, Kernel::Watertight);
@@ -174,7 +174,7 @@ pub fn unanimous_hit(zoo: &[Structure], ray: &Ray) -> Option<Hit> {
 
 /// Brute force and every query of every structure miss `ray`, with both kernels.
 #[track_caller]
-pub fn assert_misses_everywhere(mesh: &Mesh, zoo: &[Structure], ray: &Ray) {
+pub fn assert_misses_everywhere(mesh: &Mesh, zoo: &[Built], ray: &Ray) {
     for kernel in Kernel::ALL {
         assert_eq!(brute_force::cast_ray(mesh, ray, kernel), None, "{ray:?}");
         assert!(!brute_force::occluded(mesh, ray, kernel));

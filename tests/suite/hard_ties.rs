@@ -3,15 +3,13 @@
 //! the lowest id among the triangles hit at the smallest `t`, and `all_hits` must be sorted by
 //! `(t, id)`, in every structure of the zoo, bit for bit like the brute-force reference.
 
-mod common;
-
-use common::meshes::{icosphere, tri_mesh};
-use common::oracles::{
+use crate::common::meshes::{icosphere, tri_mesh};
+use crate::common::oracles::{
     HitBits, assert_matches_brute_force, bits, closest_ids, closest_is_first_of_all_hits,
     unanimous_hit,
 };
-use common::rng::{RngExt, in_box, in_cube, seeded};
-use common::zoo::all_structures;
+use crate::common::rng::{RngExt, in_box, in_cube, seeded};
+use crate::common::zoo::all_structures;
 use glam::Vec3;
 use raybatch::query::brute_force;
 use raybatch::{Hit, Kernel, Mesh, Ray};

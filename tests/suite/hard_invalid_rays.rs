@@ -2,13 +2,11 @@
 //! and subnormal directions miss everywhere without a panic (each with its `RayError`); valid
 //! but extreme rays answer like the brute-force reference, in every structure of the zoo.
 
-mod common;
-
-use common::meshes::icosphere;
-use common::oracles::{
+use crate::common::meshes::icosphere;
+use crate::common::oracles::{
     assert_matches_brute_force, assert_misses_everywhere, opt_bits, unanimous_hit,
 };
-use common::zoo::all_structures;
+use crate::common::zoo::all_structures;
 use glam::Vec3;
 use raybatch::{Kernel, Mesh, Ray, RayError};
 

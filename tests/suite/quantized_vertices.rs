@@ -3,37 +3,35 @@
 //! decoded vertex is within half a grid step of the original, and the visit counter changes
 //! no answer.
 
-mod common;
-
 use std::sync::Arc;
 
-use common::meshes::bunny;
-use common::oracles::{compare_all, describe, opt_bits};
-use common::rays::incoherent;
-use common::rng::seeded;
-use common::strategies::{RaySpec, mesh_strategy, ray_spec};
-use common::zoo::Structure;
+use crate::common::meshes::bunny;
+use crate::common::oracles::{compare_all, describe, opt_bits};
+use crate::common::rays::incoherent;
+use crate::common::rng::seeded;
+use crate::common::strategies::{RaySpec, mesh_strategy, ray_spec};
+use crate::common::zoo::Built;
 use proptest::prelude::*;
 use raybatch::bvh::nodes::QuantizedNodes;
 use raybatch::bvh::{Counted, QuantizedVertexTree};
 use raybatch::mesh::quantized::QuantizedMesh;
-use raybatch::{AabbTree, AnyAccel, BuildOptions, Mesh, QuantizedAabbTree, RayQueries};
+use raybatch::{AabbTree, BuildOptions, Mesh, QuantizedAabbTree, RayQueries};
 
 /// Trees over `q` with both node formats and leaf sizes 1 and 4.
-fn trees(q: &QuantizedMesh) -> Vec<Structure> {
+fn trees(q: &QuantizedMesh) -> Vec<Built> {
     let mut out = Vec::new();
     for leaf in [1, 4] {
         let options = BuildOptions::default().with_leaf_size(leaf);
         let full =
             QuantizedVertexTree::<raybatch::bvh::nodes::FullNodes>::build(q.clone(), &options);
         let quantized = QuantizedVertexTree::<QuantizedNodes>::build(q.clone(), &options);
-        out.push(Structure {
+        out.push(Built {
             name: format!("qv{}/full/leaf{leaf}", q.grid().bits),
-            accel: AnyAccel::new(full.unwrap()),
+            accel: Box::new(full.unwrap()),
         });
-        out.push(Structure {
+        out.push(Built {
             name: format!("qv{}/quantized-nodes/leaf{leaf}", q.grid().bits),
-            accel: AnyAccel::new(quantized.unwrap()),
+            accel: Box::new(quantized.unwrap()),
         });
     }
     out

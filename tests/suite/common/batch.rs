@@ -5,14 +5,12 @@
 use std::sync::{Mutex, OnceLock};
 
 use proptest::prelude::*;
-use raybatch::{
-    AnyAccel, BatchOptions, BatchOrdering, Hit, Interleave, Kernel, PartitionKernel, Ray,
-};
+use raybatch::{BatchOptions, BatchOrdering, Hit, Interleave, Kernel, PartitionKernel, Ray};
 use rayon::{ThreadPool, ThreadPoolBuilder};
 
 use super::oracles::{HitBits, bits, opt_bits};
 use super::rng::permutation;
-use super::zoo::Structure;
+use super::zoo::{Built, Tested};
 
 /// Where a batched call runs.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -175,7 +173,7 @@ pub struct Expected {
     pub hits: Vec<(usize, HitBits)>,
 }
 
-pub fn single_ray_answers(tree: &AnyAccel, rays: &[Ray], kernel: Kernel) -> Expected {
+pub fn single_ray_answers(tree: &dyn Tested, rays: &[Ray], kernel: Kernel) -> Expected {
     let closest = rays
         .iter()
         .map(|r| opt_bits(tree.cast_ray_with(r, kernel)))
@@ -183,7 +181,7 @@ pub fn single_ray_answers(tree: &AnyAccel, rays: &[Ray], kernel: Kernel) -> Expe
     let occluded = rays.iter().map(|r| tree.occluded_with(r, kernel)).collect();
     let mut hits = Vec::new();
     for (i, r) in rays.iter().enumerate() {
-        tree.for_each_hit_with(r, kernel, |h| hits.push((i, bits(&h))));
+        tree.for_each_hit_with(r, kernel, &mut |h| hits.push((i, bits(&h))));
     }
     hits.sort_unstable();
     Expected {
@@ -194,7 +192,7 @@ pub fn single_ray_answers(tree: &AnyAccel, rays: &[Ray], kernel: Kernel) -> Expe
 }
 
 /// Both kernels' answers, indexed like [`Kernel::ALL`].
-pub fn single_ray_answers_both(tree: &AnyAccel, rays: &[Ray]) -> [Expected; 2] {
+pub fn single_ray_answers_both(tree: &dyn Tested, rays: &[Ray]) -> [Expected; 2] {
     Kernel::ALL.map(|k| single_ray_answers(tree, rays, k))
 }
 
@@ -212,7 +210,7 @@ pub const GARBAGE: Hit = Hit {
 };
 
 pub fn batched_closest(
-    tree: &Structure,
+    tree: &Built,
     rays: &[Ray],
     combo: &Combo,
 ) -> Result<Vec<Option<Hit>>, String> {
@@ -224,11 +222,7 @@ pub fn batched_closest(
     Ok(hits)
 }
 
-pub fn batched_occluded(
-    tree: &Structure,
-    rays: &[Ray],
-    combo: &Combo,
-) -> Result<Vec<bool>, String> {
+pub fn batched_occluded(tree: &Built, rays: &[Ray], combo: &Combo) -> Result<Vec<bool>, String> {
     let options = combo.options();
     // Alternating garbage: every output must be written.
     let mut out: Vec<bool> = (0..rays.len()).map(|i| i % 2 == 0).collect();
@@ -238,11 +232,11 @@ pub fn batched_occluded(
     Ok(out)
 }
 
-pub fn batched_hits(tree: &Structure, rays: &[Ray], combo: &Combo) -> Vec<(usize, HitBits)> {
+pub fn batched_hits(tree: &Built, rays: &[Ray], combo: &Combo) -> Vec<(usize, HitBits)> {
     let options = combo.options();
     let sink = Mutex::new(Vec::new());
     combo.run(|| {
-        tree.accel.for_each_hit_batch_with(rays, &options, |i, h| {
+        tree.accel.for_each_hit_batch_with(rays, &options, &|i, h| {
             sink.lock().unwrap().push((i, bits(&h)));
         })
     });
@@ -343,7 +337,7 @@ pub fn compare_hits(
 /// Runs the three batched queries of `tree` with `combo` and compares each with the single-ray
 /// answers.
 pub fn check_combo(
-    tree: &Structure,
+    tree: &Built,
     rays: &[Ray],
     expected: &[Expected; 2],
     combo: &Combo,
@@ -360,12 +354,12 @@ pub fn check_combo(
 
 /// [`check_combo`] for every structure of `zoo` with the combinations `combos(its index)`.
 pub fn check_zoo(
-    zoo: &[Structure],
+    zoo: &[Built],
     rays: &[Ray],
     combos: impl Fn(usize) -> Vec<Combo>,
 ) -> Result<(), String> {
     for (t, tree) in zoo.iter().enumerate() {
-        let expected = single_ray_answers_both(&tree.accel, rays);
+        let expected = single_ray_answers_both(&*tree.accel, rays);
         for combo in combos(t) {
             check_combo(tree, rays, &expected, &combo)?;
         }
@@ -389,15 +383,10 @@ pub fn shuffled(rays: &[Ray], seed: u64) -> (Vec<Ray>, Vec<usize>) {
 /// Batches the shuffled rays and maps the answers back to the original order; they must be
 /// the single-ray answers of the original order and the batched answers of the original
 /// order.
-pub fn check_shuffled(
-    tree: &Structure,
-    rays: &[Ray],
-    seed: u64,
-    combo: &Combo,
-) -> Result<(), String> {
+pub fn check_shuffled(tree: &Built, rays: &[Ray], seed: u64, combo: &Combo) -> Result<(), String> {
     let (shuffled, perm) = shuffled(rays, seed);
     let what = format!("{} {combo:?} shuffled (seed {seed})", tree.name);
-    let exp = single_ray_answers(&tree.accel, rays, combo.kernel);
+    let exp = single_ray_answers(&*tree.accel, rays, combo.kernel);
 
     let got = batched_closest(tree, &shuffled, combo)?;
     let mut back = vec![None; rays.len()];
