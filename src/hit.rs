@@ -199,3 +199,87 @@ impl<F: FnMut(Hit)> Visitor for EachHit<F> {
         (self.0)(hit)
     }
 }
+
+/// [`Visitor`] without its constants, so that it can sit behind `&mut dyn` (see [`Renamed`]).
+pub(crate) trait DynVisitor {
+    fn visit_dyn(&mut self, ray: u32, hit: Hit, tmax: &mut f32);
+    fn enter_node_dyn(&mut self, ray: u32);
+}
+
+impl<V: Visitor> DynVisitor for V {
+    fn visit_dyn(&mut self, ray: u32, hit: Hit, tmax: &mut f32) {
+        self.visit(ray, hit, tmax);
+    }
+    fn enter_node_dyn(&mut self, ray: u32) {
+        self.enter_node(ray);
+    }
+}
+
+/// How [`Renamed`] turns a structure's triangle ids into its caller's.
+#[derive(Clone, Copy)]
+pub(crate) enum Ids<'a> {
+    /// The caller's id is the structure's plus an offset (a scene instance's first global id).
+    Offset(u32),
+    /// The caller's id is `table[id]` (a reordered mesh's original ids).
+    Table(&'a [u32]),
+}
+
+/// A visitor of the caller's behind `&mut dyn`, fed the caller's triangle ids (and, for a
+/// sub-stream of the caller's stream, its ray ids: `rays[ray].1`). Adapters that rename hits
+/// (a scene's instances, a structure over a reordered mesh) hand the structure they wrap this
+/// instead of a wrapper generic over the caller's visitor, so the wrapped structure's walks
+/// are compiled once per pair of constants, not once per query: the cost is one indirect call
+/// per hit. The constants are the caller's ([`with_renamed`]).
+pub(crate) struct Renamed<'a, const ENDS_RAYS: bool, const COUNTS_NODES: bool> {
+    ids: Ids<'a>,
+    rays: Option<&'a [(u32, u32)]>,
+    inner: &'a mut dyn DynVisitor,
+}
+
+impl<const ENDS_RAYS: bool, const COUNTS_NODES: bool> Visitor
+    for Renamed<'_, ENDS_RAYS, COUNTS_NODES>
+{
+    const COUNTS_NODES: bool = COUNTS_NODES;
+    const ENDS_RAYS: bool = ENDS_RAYS;
+
+    #[inline(always)]
+    fn visit(&mut self, ray: u32, hit: Hit, tmax: &mut f32) {
+        let ray = self.rays.map_or(ray, |rays| rays[ray as usize].1);
+        let triangle = match self.ids {
+            Ids::Offset(first) => first + hit.triangle,
+            Ids::Table(table) => table[hit.triangle as usize],
+        };
+        self.inner.visit_dyn(ray, Hit { triangle, ..hit }, tmax);
+    }
+
+    #[inline(always)]
+    fn enter_node(&mut self, ray: u32) {
+        if COUNTS_NODES {
+            let ray = self.rays.map_or(ray, |rays| rays[ray as usize].1);
+            self.inner.enter_node_dyn(ray);
+        }
+    }
+}
+
+/// Work to run with a [`Renamed`] visitor (see [`with_renamed`]).
+pub(crate) trait RenamedTask {
+    type Output;
+    fn run<W: Visitor>(self, visitor: &mut W) -> Self::Output;
+}
+
+/// Runs `task` with `visitor` wrapped as a [`Renamed`] with `V`'s constants.
+#[inline(always)]
+pub(crate) fn with_renamed<V: Visitor, T: RenamedTask>(
+    ids: Ids<'_>,
+    rays: Option<&[(u32, u32)]>,
+    visitor: &mut V,
+    task: T,
+) -> T::Output {
+    let inner: &mut dyn DynVisitor = visitor;
+    match (V::ENDS_RAYS, V::COUNTS_NODES) {
+        (false, false) => task.run(&mut Renamed::<false, false> { ids, rays, inner }),
+        (true, false) => task.run(&mut Renamed::<true, false> { ids, rays, inner }),
+        (false, true) => task.run(&mut Renamed::<false, true> { ids, rays, inner }),
+        (true, true) => task.run(&mut Renamed::<true, true> { ids, rays, inner }),
+    }
+}

@@ -4,13 +4,16 @@
 //! The zero-byte trees hand the permutation to their caller instead of keeping it (it would cost
 //! 4 bytes per triangle). Where answers must be in the original ids anyway (the catalog, so
 //! that every structure answers alike; tools that write hit files), this adapter keeps it and
-//! maps each hit's id *before* the query's visitor sees it. The tie rule (lowest id on equal
+//! maps each hit's id *before* the query's visitor sees it (through [`crate::hit::Renamed`], so
+//! the wrapped walks are compiled once per kind of visitor, not once per query). The tie rule (lowest id on equal
 //! `t`) is then applied to the original ids, so closest hits equal those of any other
 //! structure over the original mesh, ties included.
 
+use std::marker::PhantomData;
+
 use crate::accel::{Accel, Footprint, RayStream, StreamLayout};
 use crate::geom::{PreparedRay, Ray, TriangleTest};
-use crate::hit::{Hit, Visitor};
+use crate::hit::{Ids, RenamedTask, Visitor, with_renamed};
 
 /// A structure over a reordered mesh and the permutation back to the original ids.
 #[derive(Debug)]
@@ -41,28 +44,37 @@ impl<A> Permuted<A> {
     }
 }
 
-/// The visitor `inner`, fed original ids.
-struct ToOriginal<'a, V> {
-    to_original: &'a [u32],
-    inner: &'a mut V,
+/// One ray through the wrapped structure ([`Accel::trace`]).
+struct Ray1<'a, A: Accel, K> {
+    inner: &'a A,
+    ray: &'a PreparedRay,
+    id: u32,
+    scratch: &'a mut A::Scratch,
+    kernel: PhantomData<K>,
 }
 
-// The wrapper passes on what the walks read of the visitor it wraps.
-const _: () = assert!(<ToOriginal<'static, crate::hit::Any<'static>> as Visitor>::ENDS_RAYS);
-
-impl<V: Visitor> Visitor for ToOriginal<'_, V> {
-    const COUNTS_NODES: bool = V::COUNTS_NODES;
-    const ENDS_RAYS: bool = V::ENDS_RAYS;
-
+impl<A: Accel, K: TriangleTest> RenamedTask for Ray1<'_, A, K> {
+    type Output = f32;
     #[inline(always)]
-    fn visit(&mut self, ray: u32, hit: Hit, tmax: &mut f32) {
-        let triangle = self.to_original[hit.triangle as usize];
-        self.inner.visit(ray, Hit { triangle, ..hit }, tmax);
+    fn run<W: Visitor>(self, visitor: &mut W) -> f32 {
+        self.inner
+            .trace::<K, W>(self.ray, self.id, self.scratch, visitor)
     }
+}
 
-    #[inline(always)]
-    fn enter_node(&mut self, ray: u32) {
-        self.inner.enter_node(ray);
+/// A stream through the wrapped structure ([`Accel::trace_stream`]).
+struct Stream<'a, 's, A: Accel, K> {
+    inner: &'a A,
+    stream: &'a mut RayStream<'s>,
+    scratch: &'a mut A::Scratch,
+    kernel: PhantomData<K>,
+}
+
+impl<A: Accel, K: TriangleTest> RenamedTask for Stream<'_, '_, A, K> {
+    type Output = ();
+    fn run<W: Visitor>(self, visitor: &mut W) {
+        self.inner
+            .trace_stream::<K, W>(self.stream, self.scratch, visitor)
     }
 }
 
@@ -85,11 +97,14 @@ impl<A: Accel> Accel for Permuted<A> {
         scratch: &mut Self::Scratch,
         visitor: &mut V,
     ) -> f32 {
-        let mut visitor = ToOriginal {
-            to_original: &self.to_original,
-            inner: visitor,
+        let task = Ray1::<A, K> {
+            inner: &self.inner,
+            ray,
+            id,
+            scratch,
+            kernel: PhantomData,
         };
-        self.inner.trace::<K, _>(ray, id, scratch, &mut visitor)
+        with_renamed(Ids::Table(&self.to_original), None, visitor, task)
     }
 
     fn trace_stream<K: TriangleTest, V: Visitor>(
@@ -98,12 +113,13 @@ impl<A: Accel> Accel for Permuted<A> {
         scratch: &mut Self::Scratch,
         visitor: &mut V,
     ) {
-        let mut visitor = ToOriginal {
-            to_original: &self.to_original,
-            inner: visitor,
+        let task = Stream::<A, K> {
+            inner: &self.inner,
+            stream,
+            scratch,
+            kernel: PhantomData,
         };
-        self.inner
-            .trace_stream::<K, _>(stream, scratch, &mut visitor)
+        with_renamed(Ids::Table(&self.to_original), None, visitor, task)
     }
 }
 

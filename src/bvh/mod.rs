@@ -19,10 +19,8 @@
 //! - `leaves`: the leaf triangles in slot order, shared by every tree the builder makes.
 //! - [`tree`]: [`AabbTree`], a mesh plus a node array in one of the formats.
 //! - [`quantized_vertices`]: [`QuantizedVertexTree`], the same over a quantized-vertex mesh.
-//! - [`counted`]: [`Counted`], any tree counting its node visits.
 
 pub mod build;
-pub mod counted;
 pub(crate) mod leaves;
 pub mod nodes;
 pub mod ordering;
@@ -34,7 +32,6 @@ use glam::Vec3;
 use crate::geom::Aabb;
 
 pub use build::{BuildError, BuildOptions};
-pub use counted::Counted;
 pub use leaves::LeafCopy;
 pub use ordering::ChildOrdering;
 pub use quantized_vertices::QuantizedVertexTree;

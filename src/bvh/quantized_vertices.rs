@@ -19,23 +19,23 @@ use crate::accel::Footprint;
 use crate::geom::Aabb;
 use crate::mesh::quantized::QuantizedMesh;
 
-/// A binary AABB tree over a quantized mesh (see the module docs), with node format `N`.
+/// A binary AABB tree over a quantized mesh (see the module docs), with full nodes.
 #[derive(Clone, Debug)]
-pub struct QuantizedVertexTree<N: NodeFormat = FullNodes> {
-    nodes: N,
+pub struct QuantizedVertexTree {
+    nodes: FullNodes,
     /// Slot to triangle id (degenerate triangles of the decoded mesh have no slot).
     order: Vec<u32>,
     mesh: QuantizedMesh,
     depth: usize,
 }
 
-impl<N: NodeFormat> QuantizedVertexTree<N> {
+impl QuantizedVertexTree {
     /// Builds the tree over `mesh` (decoded for the build only). `options.leaf_copy` is
     /// ignored: a copy of the triangles would undo the memory saving.
     pub fn build(mesh: QuantizedMesh, options: &BuildOptions) -> Result<Self, BuildError> {
         let built = build(&mesh.dequantize(), options)?;
         Ok(Self {
-            nodes: N::pack(&built)?,
+            nodes: FullNodes::pack(&built)?,
             order: built.triangle_order,
             mesh,
             depth: built.depth,
@@ -48,10 +48,10 @@ impl<N: NodeFormat> QuantizedVertexTree<N> {
     }
 }
 
-impl<N: NodeFormat> Bvh for QuantizedVertexTree<N> {
+impl Bvh for QuantizedVertexTree {
     type Cache = ();
     type NodeBox = ();
-    const AVX2_TRAVERSAL: bool = N::AVX2_TRAVERSAL;
+    const AVX2_TRAVERSAL: bool = FullNodes::AVX2_TRAVERSAL;
 
     fn len(&self) -> usize {
         self.nodes.node_count()
@@ -89,12 +89,9 @@ impl<N: NodeFormat> Bvh for QuantizedVertexTree<N> {
     }
 }
 
-crate::query::compiled_queries!(
-    QuantizedVertexTree<crate::bvh::nodes::FullNodes>,
-    QuantizedVertexTree<crate::bvh::nodes::QuantizedNodes>,
-);
+crate::query::compiled_queries!(QuantizedVertexTree);
 
-impl<N: NodeFormat> Footprint for QuantizedVertexTree<N> {
+impl Footprint for QuantizedVertexTree {
     fn name(&self) -> &'static str {
         "quantized-vertices"
     }

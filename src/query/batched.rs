@@ -291,13 +291,9 @@ pub(crate) fn cast_rays_with<A: Accel>(
             // answers equal those of `Hit::none_before(ray.tmax)`, without a gather.
             best.clear();
             best.resize(slots.dead() + 1, Hit::none_before(f32::INFINITY));
-            // Only a chunk the thread's choice grouped counts its hits (never the chunks of
-            // a structure that does not mix octants).
-            let Some(judged) = judged else {
-                chunk.trace(accel, &mut Closest { best });
-                write_closest(hits, slots, best);
-                return;
-            };
+            // Every chunk counts its hits (one add per hit, one visitor type to compile); only
+            // a chunk the thread's choice grouped reports them (never the chunks of a
+            // structure that does not mix octants).
             let mut visitor = TallyingClosest {
                 closest: Closest { best },
                 reported: 0,
@@ -305,7 +301,9 @@ pub(crate) fn cast_rays_with<A: Accel>(
             chunk.trace(accel, &mut visitor);
             let reported = visitor.reported;
             let hitting = write_closest(hits, slots, best);
-            judged.record(reported, hitting);
+            if let Some(judged) = judged {
+                judged.record(reported, hitting);
+            }
         },
     );
     Ok(())

@@ -14,13 +14,15 @@
 //! back. Both paths trace the same mesh-space rays with the same kernels and report global ids
 //! to the same visitors, so batched answers equal per-ray answers bit for bit.
 
+use std::marker::PhantomData;
+
 use crate::accel::{Accel, Footprint, RayStream, Storage, StreamLayout};
 use crate::batch::BatchOptions;
 use crate::batch::lanes::Lanes;
 use crate::catalog::AnyAccel;
 use crate::geom::{Kernel, Ray};
 use crate::geom::{PreparedRay, TriangleTest};
-use crate::hit::{Hit, Visitor};
+use crate::hit::{Hit, Ids, RenamedTask, Visitor, with_renamed};
 use crate::query::{BatchError, BatchQueries, RayQueries};
 use crate::scene::filter::SceneView;
 use crate::scene::instance::{ALL_LAYERS, Instance, grown, ray_pad};
@@ -39,31 +41,38 @@ pub struct SceneScratch {
     inner: <AnyAccel as Accel>::Scratch,
 }
 
-/// The visitor `inner`, fed global triangle ids (and batch ids, for streams).
-struct ToGlobal<'a, V> {
-    first: u32,
-    outer: Option<&'a [(u32, u32)]>,
-    inner: &'a mut V,
+/// One ray traced in an instance's mesh space ([`Accel::trace`] on its tree), with the
+/// caller's visitor fed global ids.
+struct InstanceRay<'a, K> {
+    mesh: &'a AnyAccel,
+    ray: &'a PreparedRay,
+    id: u32,
+    scratch: &'a mut <AnyAccel as Accel>::Scratch,
+    kernel: PhantomData<K>,
 }
 
-// The wrapper passes on what the walks read of the visitor it wraps.
-const _: () = assert!(<ToGlobal<'static, crate::hit::Any<'static>> as Visitor>::ENDS_RAYS);
-
-impl<V: Visitor> Visitor for ToGlobal<'_, V> {
-    const COUNTS_NODES: bool = V::COUNTS_NODES;
-    const ENDS_RAYS: bool = V::ENDS_RAYS;
-
+impl<K: TriangleTest> RenamedTask for InstanceRay<'_, K> {
+    type Output = f32;
     #[inline(always)]
-    fn visit(&mut self, ray: u32, hit: Hit, tmax: &mut f32) {
-        let ray = self.outer.map_or(ray, |outer| outer[ray as usize].1);
-        let triangle = self.first + hit.triangle;
-        self.inner.visit(ray, Hit { triangle, ..hit }, tmax);
+    fn run<W: Visitor>(self, visitor: &mut W) -> f32 {
+        self.mesh
+            .trace::<K, W>(self.ray, self.id, self.scratch, visitor)
     }
+}
 
-    #[inline(always)]
-    fn enter_node(&mut self, ray: u32) {
-        let ray = self.outer.map_or(ray, |outer| outer[ray as usize].1);
-        self.inner.enter_node(ray);
+/// A stream traced in an instance's mesh space ([`Accel::trace_stream`] on its tree).
+struct InstanceStream<'a, 's, K> {
+    mesh: &'a AnyAccel,
+    stream: &'a mut RayStream<'s>,
+    scratch: &'a mut <AnyAccel as Accel>::Scratch,
+    kernel: PhantomData<K>,
+}
+
+impl<K: TriangleTest> RenamedTask for InstanceStream<'_, '_, K> {
+    type Output = ();
+    fn run<W: Visitor>(self, visitor: &mut W) {
+        self.mesh
+            .trace_stream::<K, W>(self.stream, self.scratch, visitor)
     }
 }
 
@@ -142,17 +151,14 @@ fn trace_instance<K: TriangleTest, V: Visitor>(
     let Some(local) = instance.transform.prepared_to_mesh(ray, tmax) else {
         return tmax;
     };
-    let mut visitor = ToGlobal {
-        first: instance.first_id,
-        outer: None,
-        inner: visitor,
-    };
-    scene.meshes[instance.mesh()].trace::<K::AnyAxis, _>(
-        &local,
+    let task = InstanceRay::<K::AnyAxis> {
+        mesh: &scene.meshes[instance.mesh()],
+        ray: &local,
         id,
-        &mut scratch.inner,
-        &mut visitor,
-    )
+        scratch: &mut scratch.inner,
+        kernel: PhantomData,
+    };
+    with_renamed(Ids::Offset(instance.first_id), None, visitor, task)
 }
 
 /// A stream through the scene (see the module docs).
@@ -234,12 +240,13 @@ fn stream_instance<K: TriangleTest, V: Visitor>(
         // Mesh space is world space: the stream's own rays go down the mesh's tree as they
         // are (the tree only reorders them within the prefix, which keeps the set).
         let mut local = stream.prefix(active);
-        let mut visitor = ToGlobal {
-            first: instance.first_id,
-            outer: None,
-            inner: visitor,
+        let task = InstanceStream::<K::AnyAxis> {
+            mesh,
+            stream: &mut local,
+            scratch: &mut scratch.inner,
+            kernel: PhantomData,
         };
-        mesh.trace_stream::<K::AnyAxis, _>(&mut local, &mut scratch.inner, &mut visitor);
+        with_renamed(Ids::Offset(instance.first_id), None, visitor, task);
         return;
     }
     let SceneScratch {
@@ -267,12 +274,13 @@ fn stream_instance<K: TriangleTest, V: Visitor>(
     }
     let storage = Storage::Lanes(lanes);
     let mut local = RayStream::new(storage, 0, n, 0, stream.partitioner, stream.options);
-    let mut visitor = ToGlobal {
-        first: instance.first_id,
-        outer: Some(outer),
-        inner: visitor,
+    let task = InstanceStream::<K::AnyAxis> {
+        mesh,
+        stream: &mut local,
+        scratch: inner,
+        kernel: PhantomData,
     };
-    mesh.trace_stream::<K::AnyAxis, _>(&mut local, inner, &mut visitor);
+    with_renamed(Ids::Offset(instance.first_id), Some(outer), visitor, task);
     for lane in 0..n {
         let (i, _) = outer[lanes.id(lane) as usize];
         stream.set_tmax(i as usize, lanes.tmax(lane));

@@ -15,13 +15,9 @@
 
 use std::sync::Arc;
 
-use raybatch::bvh::nodes::FullNodes;
-use raybatch::bvh::{Counted, QuantizedVertexTree};
+use raybatch::bvh::QuantizedVertexTree;
 use raybatch::mesh::quantized::QuantizedMesh;
-use raybatch::{
-    AabbTree, AccelKind, BatchOrdering, BuildOptions, Kernel, Mesh, QuantizedAabbTree, Ray,
-    RayQueries,
-};
+use raybatch::{AccelKind, BatchOrdering, BuildOptions, Kernel, Mesh, Ray};
 use raybatch_tools::judge::{Reference, score};
 use raybatch_tools::report::{Record, Section};
 use raybatch_tools::scenes::RaySet;
@@ -103,7 +99,7 @@ fn build(mode: &Mode, mesh: &Arc<Mesh>) -> Built {
         Build::QuantizedVertices(bits) => {
             let q = QuantizedMesh::new(mesh, bits).expect("valid bit counts");
             let mesh_bytes = q.heap_bytes();
-            let tree = QuantizedVertexTree::<FullNodes>::build(q, &options).expect("builds");
+            let tree = QuantizedVertexTree::build(q, &options).expect("builds");
             Built {
                 tree: Box::new(tree),
                 mesh_bytes,
@@ -112,31 +108,14 @@ fn build(mode: &Mode, mesh: &Arc<Mesh>) -> Built {
     }
 }
 
-/// Nodes visited per ray (closest hit, per ray) for the binary trees, by their visit counter.
-fn nodes_per_ray(mode: &Mode, mesh: &Arc<Mesh>, rays: &[Ray]) -> Option<f64> {
-    let options = BuildOptions::default();
-    let visits = match mode.build {
-        Build::Tree(AccelKind::Aabb) => count(
-            &Counted::new(AabbTree::<FullNodes>::build(mesh.clone(), &options).ok()?),
-            rays,
-        ),
-        Build::Tree(AccelKind::Quantized) => count(
-            &Counted::new(QuantizedAabbTree::build(mesh.clone(), &options).ok()?),
-            rays,
-        ),
-        _ => return None,
-    };
-    Some(visits as f64 / rays.len().max(1) as f64)
-}
-
-fn count<B: raybatch::Bvh>(tree: &Counted<B>, rays: &[Ray]) -> u64
-where
-    Counted<B>: RayQueries,
-{
-    rays.iter().for_each(|r| {
-        std::hint::black_box(tree.cast_ray(r));
-    });
-    tree.visits()
+/// Nodes (and leaves) the one-ray walk enters per ray, closest hit
+/// ([`RayQueries::cast_ray_visits`]).
+fn nodes_per_ray(tree: &dyn Measured, kernel: Kernel, rays: &[Ray]) -> f64 {
+    let visits: u64 = rays
+        .iter()
+        .map(|r| u64::from(tree.cast_ray_visits(r, kernel).1))
+        .sum();
+    visits as f64 / rays.len().max(1) as f64
 }
 
 /// The modes table of one scene, and its records.
@@ -175,7 +154,7 @@ pub fn section(scene: &str, mesh: &Arc<Mesh>, rays: &RaySets) -> (String, Vec<Re
                 r.mesh_bytes_per_triangle = Some(built.mesh_bytes as f64 / triangles);
                 r.score = Some(score(&judge, sample, truth, &answers));
                 if engine == "per-ray" && *set == RaySet::Incoherent {
-                    r.nodes_per_ray = nodes_per_ray(m, mesh, sample);
+                    r.nodes_per_ray = Some(nodes_per_ray(&*built.tree, m.kernel, sample));
                 }
                 records.push(r);
             }
