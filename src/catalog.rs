@@ -323,15 +323,19 @@ impl Accel for AnyAccel {
 
 /// Each query goes to the tree's own (one `match` per call).
 impl RayQueries for AnyAccel {
+    #[cfg_attr(test, inline)]
     fn cast_ray_with(&self, ray: &Ray, kernel: Kernel) -> Option<Hit> {
         each_tree!(&self.tree, (_kind, tree) => tree.cast_ray_with(ray, kernel))
     }
+    #[cfg_attr(test, inline)]
     fn cast_ray_visits(&self, ray: &Ray, kernel: Kernel) -> (Option<Hit>, u32) {
         each_tree!(&self.tree, (_kind, tree) => tree.cast_ray_visits(ray, kernel))
     }
+    #[cfg_attr(test, inline)]
     fn occluded_with(&self, ray: &Ray, kernel: Kernel) -> bool {
         each_tree!(&self.tree, (_kind, tree) => tree.occluded_with(ray, kernel))
     }
+    #[cfg_attr(test, inline)]
     fn for_each_hit_with(&self, ray: &Ray, kernel: Kernel, f: &mut dyn FnMut(Hit)) {
         each_tree!(&self.tree, (_kind, tree) => tree.for_each_hit_with(ray, kernel, f))
     }
@@ -344,6 +348,7 @@ impl RayQueries for AnyAccel {
 }
 
 impl BatchQueries for AnyAccel {
+    #[cfg_attr(test, inline)]
     fn cast_rays_with(
         &self,
         rays: &[Ray],
@@ -352,6 +357,7 @@ impl BatchQueries for AnyAccel {
     ) -> Result<(), BatchError> {
         each_tree!(&self.tree, (_kind, tree) => tree.cast_rays_with(rays, hits, options))
     }
+    #[cfg_attr(test, inline)]
     fn occluded_batch_with(
         &self,
         rays: &[Ray],
@@ -360,6 +366,7 @@ impl BatchQueries for AnyAccel {
     ) -> Result<(), BatchError> {
         each_tree!(&self.tree, (_kind, tree) => tree.occluded_batch_with(rays, occluded, options))
     }
+    #[cfg_attr(test, inline)]
     fn for_each_hit_batch_with(
         &self,
         rays: &[Ray],

@@ -116,23 +116,6 @@ impl Visitor for CountingClosest<'_> {
     }
 }
 
-/// [`Closest`] that counts the hits reported to it: what the batched closest-hit query's choice
-/// of grouping reads (`crate::batch::mixing`), one add per hit (no measurable time: fandisk and
-/// bunny, 1M incoherent rays, batched in one call and in calls of 4,096, within 1%).
-pub(crate) struct TallyingClosest<'a> {
-    pub(crate) closest: Closest<'a>,
-    /// Hits reported so far.
-    pub(crate) reported: u64,
-}
-
-impl Visitor for TallyingClosest<'_> {
-    #[inline(always)]
-    fn visit(&mut self, ray: u32, hit: Hit, tmax: &mut f32) {
-        self.reported += 1;
-        self.closest.visit(ray, hit, tmax);
-    }
-}
-
 /// The value of `tmax` that ends a ray (see [`Visitor`]).
 pub const RAY_DONE: f32 = f32::NEG_INFINITY;
 
@@ -145,14 +128,19 @@ pub struct Closest<'a> {
 impl Visitor for Closest<'_> {
     #[inline(always)]
     fn visit(&mut self, ray: u32, hit: Hit, tmax: &mut f32) {
-        // `tmax` is always the best `t` so far and structures only report `t <= tmax`, so a
-        // strictly smaller `t` wins without reading the best hit (a cache miss in a batch of a
-        // million rays); only a tie needs the best hit's id.
-        let best = &mut self.best[ray as usize];
-        if hit.t < *tmax || hit.is_before(best) {
-            *best = hit;
-            *tmax = hit.t;
-        }
+        keep_closest(&mut self.best[ray as usize], hit, tmax);
+    }
+}
+
+/// Keeps `hit` in `best` if it is before it by the tie rule, shrinking the range to it.
+#[inline(always)]
+fn keep_closest(best: &mut Hit, hit: Hit, tmax: &mut f32) {
+    // `tmax` is always the best `t` so far and structures only report `t <= tmax`, so a
+    // strictly smaller `t` wins without reading the best hit (a cache miss in a batch of a
+    // million rays); only a tie needs the best hit's id.
+    if hit.t < *tmax || hit.is_before(best) {
+        *best = hit;
+        *tmax = hit.t;
     }
 }
 
@@ -169,24 +157,6 @@ impl Visitor for Any<'_> {
     fn visit(&mut self, ray: u32, _: Hit, tmax: &mut f32) {
         self.occluded[ray as usize] = true;
         *tmax = RAY_DONE;
-    }
-}
-
-/// Reports every hit of ray `ray` to `f(offset + positions[ray], hit)`.
-pub struct Every<'a, F: ?Sized> {
-    /// Added to the ray's position (the position of this chunk in the caller's batch).
-    pub offset: usize,
-    /// The position in the chunk of each ray id the walk reports (a batch's streams number
-    /// rays by their prepared slot).
-    pub positions: &'a [u32],
-    /// The caller's callback.
-    pub f: &'a F,
-}
-
-impl<F: Fn(usize, Hit) + ?Sized> Visitor for Every<'_, F> {
-    #[inline(always)]
-    fn visit(&mut self, ray: u32, hit: Hit, _: &mut f32) {
-        (self.f)(self.offset + self.positions[ray as usize] as usize, hit);
     }
 }
 
@@ -215,29 +185,95 @@ impl<V: Visitor> DynVisitor for V {
     }
 }
 
-/// How [`Renamed`] turns a structure's triangle ids into its caller's.
+/// How a [`Sink`] turns a structure's triangle ids into its caller's.
 #[derive(Clone, Copy)]
 pub(crate) enum Ids<'a> {
+    /// The same ids.
+    Same,
     /// The caller's id is the structure's plus an offset (a scene instance's first global id).
     Offset(u32),
     /// The caller's id is `table[id]` (a reordered mesh's original ids).
     Table(&'a [u32]),
 }
 
-/// A visitor of the caller's behind `&mut dyn`, fed the caller's triangle ids (and, for a
-/// sub-stream of the caller's stream, its ray ids: `rays[ray].1`). Adapters that rename hits
-/// (a scene's instances, a structure over a reordered mesh) hand the structure they wrap this
-/// instead of a wrapper generic over the caller's visitor, so the wrapped structure's walks
-/// are compiled once per pair of constants, not once per query: the cost is one indirect call
-/// per hit. The constants are the caller's ([`with_renamed`]).
-pub(crate) struct Renamed<'a, const ENDS_RAYS: bool, const COUNTS_NODES: bool> {
+/// What a [`Sink`] keeps of each hit: one variant per batched query, or a visitor of the
+/// caller's behind `&mut dyn` (for the adapters that rename hits).
+pub(crate) enum Keep<'a> {
+    /// Each ray's closest hit by the tie rule (as [`Closest`]), and how many hits were
+    /// reported (what the batched closest-hit query's choice of grouping reads,
+    /// `crate::batch::mixing`; one add per hit).
+    Closest { best: &'a mut [Hit], reported: u64 },
+    /// Whether each ray hit anything; a ray ends at its first hit (as [`Any`]).
+    Any { occluded: &'a mut [bool] },
+    /// Every hit of ray `ray`, to `f(offset + positions[ray], hit)`.
+    Every {
+        offset: usize,
+        positions: &'a [u32],
+        f: &'a (dyn Fn(usize, Hit) + Sync),
+    },
+    /// A visitor of the caller's.
+    Dyn(&'a mut dyn DynVisitor),
+}
+
+/// The visitor of the stream engines and of the adapters that rename hits (a scene's
+/// instances, a structure over a reordered mesh): what to keep ([`Keep`]) chosen at run time,
+/// the renaming ([`Ids`], and for a sub-stream of the caller's stream its ray ids:
+/// `rays[ray].1`), and the constants of [`Visitor`] as parameters. A structure's walks are then
+/// compiled for a few such types instead of once per query and per adapter; the cost is a
+/// predictable branch per hit (an indirect call for [`Keep::Dyn`]).
+pub(crate) struct Sink<'a, const ENDS_RAYS: bool, const COUNTS_NODES: bool> {
     ids: Ids<'a>,
     rays: Option<&'a [(u32, u32)]>,
-    inner: &'a mut dyn DynVisitor,
+    keep: Keep<'a>,
+}
+
+impl<'a> Sink<'a, false, false> {
+    /// Keeps each ray's closest hit in `best` (see [`Keep::Closest`]).
+    pub(crate) fn closest(best: &'a mut [Hit]) -> Self {
+        Self::keeping(Keep::Closest { best, reported: 0 })
+    }
+
+    /// Reports every hit to `f` (see [`Keep::Every`]).
+    pub(crate) fn every(
+        offset: usize,
+        positions: &'a [u32],
+        f: &'a (dyn Fn(usize, Hit) + Sync),
+    ) -> Self {
+        Self::keeping(Keep::Every {
+            offset,
+            positions,
+            f,
+        })
+    }
+
+    /// Hits reported so far to a closest-hit sink (0 for the others).
+    pub(crate) fn reported(&self) -> u64 {
+        match self.keep {
+            Keep::Closest { reported, .. } => reported,
+            _ => 0,
+        }
+    }
+}
+
+impl<'a> Sink<'a, true, false> {
+    /// Marks each ray occluded at its first hit and ends it (see [`Keep::Any`]).
+    pub(crate) fn any(occluded: &'a mut [bool]) -> Self {
+        Self::keeping(Keep::Any { occluded })
+    }
+}
+
+impl<'a, const ENDS_RAYS: bool, const COUNTS_NODES: bool> Sink<'a, ENDS_RAYS, COUNTS_NODES> {
+    fn keeping(keep: Keep<'a>) -> Self {
+        Self {
+            ids: Ids::Same,
+            rays: None,
+            keep,
+        }
+    }
 }
 
 impl<const ENDS_RAYS: bool, const COUNTS_NODES: bool> Visitor
-    for Renamed<'_, ENDS_RAYS, COUNTS_NODES>
+    for Sink<'_, ENDS_RAYS, COUNTS_NODES>
 {
     const COUNTS_NODES: bool = COUNTS_NODES;
     const ENDS_RAYS: bool = ENDS_RAYS;
@@ -246,28 +282,46 @@ impl<const ENDS_RAYS: bool, const COUNTS_NODES: bool> Visitor
     fn visit(&mut self, ray: u32, hit: Hit, tmax: &mut f32) {
         let ray = self.rays.map_or(ray, |rays| rays[ray as usize].1);
         let triangle = match self.ids {
+            Ids::Same => hit.triangle,
             Ids::Offset(first) => first + hit.triangle,
             Ids::Table(table) => table[hit.triangle as usize],
         };
-        self.inner.visit_dyn(ray, Hit { triangle, ..hit }, tmax);
+        let hit = Hit { triangle, ..hit };
+        match &mut self.keep {
+            Keep::Closest { best, reported } => {
+                *reported += 1;
+                keep_closest(&mut best[ray as usize], hit, tmax);
+            }
+            Keep::Any { occluded } => {
+                occluded[ray as usize] = true;
+                *tmax = RAY_DONE;
+            }
+            Keep::Every {
+                offset,
+                positions,
+                f,
+            } => f(*offset + positions[ray as usize] as usize, hit),
+            Keep::Dyn(inner) => inner.visit_dyn(ray, hit, tmax),
+        }
     }
 
     #[inline(always)]
     fn enter_node(&mut self, ray: u32) {
-        if COUNTS_NODES {
+        if COUNTS_NODES && let Keep::Dyn(inner) = &mut self.keep {
             let ray = self.rays.map_or(ray, |rays| rays[ray as usize].1);
-            self.inner.enter_node_dyn(ray);
+            inner.enter_node_dyn(ray);
         }
     }
 }
 
-/// Work to run with a [`Renamed`] visitor (see [`with_renamed`]).
+/// Work to run with a renaming [`Sink`] (see [`with_renamed`]).
 pub(crate) trait RenamedTask {
     type Output;
     fn run<W: Visitor>(self, visitor: &mut W) -> Self::Output;
 }
 
-/// Runs `task` with `visitor` wrapped as a [`Renamed`] with `V`'s constants.
+/// Runs `task` with `visitor` behind a [`Sink`] that renames hits by `ids` (and ray ids by
+/// `rays`), with `V`'s constants.
 #[inline(always)]
 pub(crate) fn with_renamed<V: Visitor, T: RenamedTask>(
     ids: Ids<'_>,
@@ -275,11 +329,12 @@ pub(crate) fn with_renamed<V: Visitor, T: RenamedTask>(
     visitor: &mut V,
     task: T,
 ) -> T::Output {
-    let inner: &mut dyn DynVisitor = visitor;
+    let keep = Keep::Dyn(visitor);
+    // Only the arm of `V`'s constants is compiled for it.
     match (V::ENDS_RAYS, V::COUNTS_NODES) {
-        (false, false) => task.run(&mut Renamed::<false, false> { ids, rays, inner }),
-        (true, false) => task.run(&mut Renamed::<true, false> { ids, rays, inner }),
-        (false, true) => task.run(&mut Renamed::<false, true> { ids, rays, inner }),
-        (true, true) => task.run(&mut Renamed::<true, true> { ids, rays, inner }),
+        (false, false) => task.run(&mut Sink::<false, false> { ids, rays, keep }),
+        (true, false) => task.run(&mut Sink::<true, false> { ids, rays, keep }),
+        (false, true) => task.run(&mut Sink::<false, true> { ids, rays, keep }),
+        (true, true) => task.run(&mut Sink::<true, true> { ids, rays, keep }),
     }
 }

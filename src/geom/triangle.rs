@@ -94,6 +94,17 @@ impl Kernel {
             (Kernel::MollerTrumbore, _) => task.run::<MollerTrumbore>(),
         }
     }
+
+    /// Runs `task` monomorphized for this kernel only, the watertight kernel choosing the
+    /// axis permutation per test ([`Watertight`]): for queries off the hot path, compiled once
+    /// per kernel instead of once per axis.
+    #[inline(always)]
+    pub fn dispatch_any_axis<T: KernelTask>(self, task: T) -> T::Output {
+        match self {
+            Kernel::Watertight => task.run::<Watertight>(),
+            Kernel::MollerTrumbore => task.run::<MollerTrumbore>(),
+        }
+    }
 }
 
 /// The watertight kernel (see the module docs).

@@ -20,7 +20,7 @@ use crate::batch::options::BatchOptions;
 use crate::batch::partition::Partitioner;
 use crate::batch::scratch::BatchScratch;
 use crate::geom::{Aabb, Kernel, MollerTrumbore, Ray, Watertight};
-use crate::hit::{Any, Closest, Every, Hit, TallyingClosest, Visitor};
+use crate::hit::{Hit, Sink, Visitor};
 use crate::query::single;
 #[cfg(doc)]
 use crate::query::single::RayQueries;
@@ -294,12 +294,9 @@ pub(crate) fn cast_rays_with<A: Accel>(
             // Every chunk counts its hits (one add per hit, one visitor type to compile); only
             // a chunk the thread's choice grouped reports them (never the chunks of a
             // structure that does not mix octants).
-            let mut visitor = TallyingClosest {
-                closest: Closest { best },
-                reported: 0,
-            };
+            let mut visitor = Sink::closest(best);
             chunk.trace(accel, &mut visitor);
-            let reported = visitor.reported;
+            let reported = visitor.reported();
             let hitting = write_closest(hits, slots, best);
             if let Some(judged) = judged {
                 judged.record(reported, hitting);
@@ -333,7 +330,7 @@ pub(crate) fn occluded_batch_with<A: Accel>(
             } = answers;
             occluded.clear();
             occluded.resize(slots.dead() + 1, false);
-            chunk.trace(accel, &mut Any { occluded });
+            chunk.trace(accel, &mut Sink::any(occluded));
             for (out, &slot) in out.iter_mut().zip(&slots.of_position) {
                 *out = occluded.get(slot as usize).copied().unwrap_or(false);
             }
@@ -363,14 +360,7 @@ pub(crate) fn for_each_hit_batch_with<A: Accel>(
         (options, Query::Other),
         |offset, _, mut chunk, answers| {
             let positions = &answers.slots.positions;
-            chunk.trace(
-                accel,
-                &mut Every {
-                    offset,
-                    positions,
-                    f,
-                },
-            );
+            chunk.trace(accel, &mut Sink::every(offset, positions, f));
         },
     );
 }

@@ -21,9 +21,12 @@ pub use single::RayQueries;
 /// Implements [`RayQueries`] and [`BatchQueries`] for each listed [`crate::accel::Accel`] with
 /// the engines of [`single`] and [`batched`]. The impls are not generic, so each structure's
 /// queries are compiled once, in this crate, instead of again in every crate that calls them.
+/// (In the crate's own unit-test build they are inline, so only the queries a test calls are
+/// compiled there.)
 macro_rules! compiled_queries {
     ($($structure:ty),+ $(,)?) => {$(
         impl $crate::query::RayQueries for $structure {
+            #[cfg_attr(test, inline)]
             fn cast_ray_with(
                 &self,
                 ray: &$crate::geom::Ray,
@@ -31,6 +34,7 @@ macro_rules! compiled_queries {
             ) -> Option<$crate::hit::Hit> {
                 $crate::query::single::cast_ray_with(self, ray, kernel)
             }
+            #[cfg_attr(test, inline)]
             fn cast_ray_visits(
                 &self,
                 ray: &$crate::geom::Ray,
@@ -38,9 +42,11 @@ macro_rules! compiled_queries {
             ) -> (Option<$crate::hit::Hit>, u32) {
                 $crate::query::single::cast_ray_visits(self, ray, kernel)
             }
+            #[cfg_attr(test, inline)]
             fn occluded_with(&self, ray: &$crate::geom::Ray, kernel: $crate::geom::Kernel) -> bool {
                 $crate::query::single::occluded_with(self, ray, kernel)
             }
+            #[cfg_attr(test, inline)]
             fn for_each_hit_with(
                 &self,
                 ray: &$crate::geom::Ray,
@@ -62,6 +68,7 @@ macro_rules! compiled_queries {
         }
 
         impl $crate::query::BatchQueries for $structure {
+            #[cfg_attr(test, inline)]
             fn cast_rays_with(
                 &self,
                 rays: &[$crate::geom::Ray],
@@ -70,6 +77,7 @@ macro_rules! compiled_queries {
             ) -> Result<(), $crate::query::BatchError> {
                 $crate::query::batched::cast_rays_with(self, rays, hits, options)
             }
+            #[cfg_attr(test, inline)]
             fn occluded_batch_with(
                 &self,
                 rays: &[$crate::geom::Ray],
@@ -78,6 +86,7 @@ macro_rules! compiled_queries {
             ) -> Result<(), $crate::query::BatchError> {
                 $crate::query::batched::occluded_batch_with(self, rays, occluded, options)
             }
+            #[cfg_attr(test, inline)]
             fn for_each_hit_batch_with(
                 &self,
                 rays: &[$crate::geom::Ray],

@@ -79,6 +79,21 @@ pub(crate) fn trace_one<A: Accel, V: Visitor>(
     )
 }
 
+/// [`trace_one`] with the kernel chosen per test of the watertight kernel's axis
+/// ([`Kernel::dispatch_any_axis`]): the same answers, compiled once per kernel.
+pub(crate) fn trace_one_any_axis<A: Accel, V: Visitor>(
+    accel: &A,
+    ray: &PreparedRay,
+    kernel: Kernel,
+    visitor: &mut V,
+) {
+    kernel.dispatch_any_axis(TraceOne {
+        accel,
+        ray,
+        visitor,
+    })
+}
+
 /// [`Accel::trace_alone`] packaged for [`Kernel::dispatch`].
 struct TraceOne<'a, A: Accel, V> {
     accel: &'a A,
@@ -116,7 +131,7 @@ pub(crate) fn cast_ray_visits<A: Accel>(
         closest: Closest { best: &mut best },
         nodes: 0,
     };
-    trace_one(accel, &prepared, kernel, &mut counting);
+    trace_one_any_axis(accel, &prepared, kernel, &mut counting);
     let nodes = counting.nodes;
     (best[0].found(), nodes)
 }
@@ -149,5 +164,7 @@ pub(crate) fn for_each_hit_with<A: Accel>(
     kernel: Kernel,
     f: &mut dyn FnMut(Hit),
 ) {
-    visit(accel, ray, kernel, &mut EachHit(f));
+    if let Some(prepared) = PreparedRay::new(ray) {
+        trace_one_any_axis(accel, &prepared, kernel, &mut EachHit(f));
+    }
 }

@@ -317,15 +317,19 @@ crate::query::compiled_queries!(SceneView<'_>);
 
 /// The scene's queries are its view's on every layer ([`ALL_LAYERS`]).
 impl RayQueries for Scene {
+    #[cfg_attr(test, inline)]
     fn cast_ray_with(&self, ray: &Ray, kernel: Kernel) -> Option<Hit> {
         self.filtered(ALL_LAYERS).cast_ray_with(ray, kernel)
     }
+    #[cfg_attr(test, inline)]
     fn cast_ray_visits(&self, ray: &Ray, kernel: Kernel) -> (Option<Hit>, u32) {
         self.filtered(ALL_LAYERS).cast_ray_visits(ray, kernel)
     }
+    #[cfg_attr(test, inline)]
     fn occluded_with(&self, ray: &Ray, kernel: Kernel) -> bool {
         self.filtered(ALL_LAYERS).occluded_with(ray, kernel)
     }
+    #[cfg_attr(test, inline)]
     fn for_each_hit_with(&self, ray: &Ray, kernel: Kernel, f: &mut dyn FnMut(Hit)) {
         self.filtered(ALL_LAYERS).for_each_hit_with(ray, kernel, f)
     }
@@ -338,6 +342,7 @@ impl RayQueries for Scene {
 }
 
 impl BatchQueries for Scene {
+    #[cfg_attr(test, inline)]
     fn cast_rays_with(
         &self,
         rays: &[Ray],
@@ -347,6 +352,7 @@ impl BatchQueries for Scene {
         self.filtered(ALL_LAYERS)
             .cast_rays_with(rays, hits, options)
     }
+    #[cfg_attr(test, inline)]
     fn occluded_batch_with(
         &self,
         rays: &[Ray],
@@ -356,6 +362,7 @@ impl BatchQueries for Scene {
         self.filtered(ALL_LAYERS)
             .occluded_batch_with(rays, occluded, options)
     }
+    #[cfg_attr(test, inline)]
     fn for_each_hit_batch_with(
         &self,
         rays: &[Ray],

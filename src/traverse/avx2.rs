@@ -15,19 +15,31 @@
 pub(crate) trait Loop {
     /// What the loop returns.
     type Output;
+    /// Whether the loop has an AVX2 copy at all: false for loops measured no faster that way
+    /// and for diagnostic walks (node counting), which are then compiled once, not twice.
+    const AVX2: bool;
     /// Runs the loop.
     fn run(self) -> Self::Output;
 }
 
-/// `task` in the AVX2 copy if `wanted` and the CPU has AVX2, else in the baseline copy.
+/// `task` in the AVX2 copy if it has one ([`Loop::AVX2`]), `wanted` and the CPU has AVX2, else
+/// in the baseline copy.
 #[inline]
 pub(crate) fn run<L: Loop>(task: L, wanted: bool) -> L::Output {
     #[cfg(target_arch = "x86_64")]
-    if wanted && std::arch::is_x86_feature_detected!("avx2") {
+    if L::AVX2 && wanted && std::arch::is_x86_feature_detected!("avx2") {
         // SAFETY: the CPU supports AVX2, the only requirement of `run_avx2`.
         return unsafe { run_avx2(task) };
     }
     let _ = wanted;
+    run_portable(task)
+}
+
+/// `task` compiled for the baseline. Out of line, as the AVX2 copy is: each copy of a loop is
+/// one function, which keeps its callers (a query's dispatch over kernels and axes, a scene's
+/// over tree kinds) small and the crate's build quick, for one call per ray or stream.
+#[inline(never)]
+fn run_portable<L: Loop>(task: L) -> L::Output {
     task.run()
 }
 
@@ -37,6 +49,7 @@ pub(crate) fn run<L: Loop>(task: L, wanted: bool) -> L::Output {
 /// The CPU must support AVX2.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
+#[inline(never)]
 unsafe fn run_avx2<L: Loop>(task: L) -> L::Output {
     task.run()
 }

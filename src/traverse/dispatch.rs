@@ -27,6 +27,7 @@ where
     S: PendingStack<Pending<B>>,
 {
     type Output = f32;
+    const AVX2: bool = B::AVX2_TRAVERSAL && !V::COUNTS_NODES;
     #[inline(always)]
     fn run(self) -> f32 {
         single::trace::<B, K, V, S>(self.tree, self.ray, self.id, self.memory, self.visitor)

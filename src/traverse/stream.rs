@@ -58,6 +58,7 @@ pub(crate) fn trace_stream<B, K, V>(
 
 impl<B: Bvh, K: TriangleTest, V: Visitor> Loop for Stream<'_, '_, B, K, V> {
     type Output = ();
+    const AVX2: bool = B::AVX2_TRAVERSAL;
 
     /// Runs every ray of the stream through the tree.
     #[inline(always)]

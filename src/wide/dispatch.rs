@@ -28,6 +28,7 @@ struct OneRay<'a, N: NodeKind, K, V> {
 
 impl<N: NodeKind, K: TriangleTest, V: Visitor> Loop for OneRay<'_, N, K, V> {
     type Output = f32;
+    const AVX2: bool = !V::COUNTS_NODES;
     #[inline(always)]
     fn run(self) -> f32 {
         let OneRay { tree, ray, id, .. } = self;
@@ -78,6 +79,7 @@ struct Rays<'a, 's, N: NodeKind, K, V> {
 
 impl<N: NodeKind, K: TriangleTest, V: Visitor> Loop for Rays<'_, '_, N, K, V> {
     type Output = ();
+    const AVX2: bool = true;
     #[inline(always)]
     fn run(self) {
         let Rays {
@@ -125,6 +127,7 @@ struct Shared<'a, 's, N: NodeKind, K, V> {
 
 impl<N: NodeKind, K: TriangleTest, V: Visitor> Loop for Shared<'_, '_, N, K, V> {
     type Output = ();
+    const AVX2: bool = true;
     #[inline(always)]
     fn run(self) {
         stream::trace_stream::<N, K, V>(self.tree, self.stream, self.scratch, self.visitor)

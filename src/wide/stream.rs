@@ -614,14 +614,12 @@ mod tests {
     /// caller's threshold, every other walk at the threshold itself, saturating.
     #[test]
     fn ending_visitors_double_the_one_ray_threshold() {
-        use crate::hit::{Any, Closest, Every};
+        use crate::hit::{Any, Closest, Sink};
         assert_eq!(single_ray_below::<Any<'static>>(8), 16);
         assert_eq!(single_ray_below::<Any<'static>>(usize::MAX), usize::MAX);
+        assert_eq!(single_ray_below::<Sink<'static, true, false>>(8), 16);
         assert_eq!(single_ray_below::<Closest<'static>>(8), 8);
-        assert_eq!(
-            single_ray_below::<Every<'static, fn(usize, crate::Hit)>>(8),
-            8
-        );
+        assert_eq!(single_ray_below::<Sink<'static, false, false>>(8), 8);
     }
 
     /// A node of `used` random boxes (some flat), ordered.
