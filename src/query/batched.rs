@@ -11,6 +11,10 @@
 //! Answers equal the single-ray answers bit for bit (see [`crate::query`]): the structures
 //! report the same hits with the same kernels, and the visitors ([`crate::hit`]) keep them by
 //! the tie rule, so neither the visiting order nor the grouping can change an outcome.
+//!
+//! Batches with the Möller-Trumbore kernel also go ray by ray: it is a kernel for comparisons
+//! (no faster than the watertight one, and not watertight: see `docs/benchmarks.md`), and
+//! the stream engines are compiled for the watertight kernel only.
 
 use crate::accel::{Accel, RayStream, Storage, StreamLayout};
 use crate::batch::chunks::for_each_chunk;
@@ -19,7 +23,7 @@ use crate::batch::mixing::JudgedChunk;
 use crate::batch::options::BatchOptions;
 use crate::batch::partition::Partitioner;
 use crate::batch::scratch::BatchScratch;
-use crate::geom::{Aabb, Kernel, MollerTrumbore, Ray, Watertight};
+use crate::geom::{Aabb, Kernel, Ray, Watertight};
 use crate::hit::{Hit, Sink, Visitor};
 use crate::query::single;
 #[cfg(doc)]
@@ -50,6 +54,12 @@ impl std::fmt::Display for BatchError {
 }
 
 impl std::error::Error for BatchError {}
+
+/// Whether a batch goes through the single-ray path: too small to pay for a stream, or with
+/// a kernel the stream engines are not compiled for (see the module docs).
+fn ray_by_ray(rays: &[Ray], options: &BatchOptions) -> bool {
+    rays.len() < options.min_batch || options.kernel != Kernel::Watertight
+}
 
 fn check_lengths(rays: usize, outputs: usize) -> Result<(), BatchError> {
     if rays == outputs {
@@ -83,15 +93,8 @@ impl<S> Chunk<'_, S> {
                 .dense_octant(dense);
             // Rays of a group have different dominant axes, so the watertight kernel dispatches
             // per ray (`Watertight` calls the same `WatertightAxis` function as the single-ray
-            // path).
-            match options.kernel {
-                Kernel::Watertight => {
-                    accel.trace_stream::<Watertight, V>(&mut stream, self.scratch, visitor)
-                }
-                Kernel::MollerTrumbore => {
-                    accel.trace_stream::<MollerTrumbore, V>(&mut stream, self.scratch, visitor)
-                }
-            }
+            // path). Other kernels never get here (`ray_by_ray`).
+            accel.trace_stream::<Watertight, V>(&mut stream, self.scratch, visitor)
         }
     }
 }
@@ -269,7 +272,7 @@ pub(crate) fn cast_rays_with<A: Accel>(
     options: &BatchOptions,
 ) -> Result<(), BatchError> {
     check_lengths(rays.len(), hits.len())?;
-    if rays.len() < options.min_batch {
+    if ray_by_ray(rays, options) {
         for (ray, hit) in rays.iter().zip(hits.iter_mut()) {
             *hit = single::cast_ray_with(accel, ray, options.kernel);
         }
@@ -314,7 +317,7 @@ pub(crate) fn occluded_batch_with<A: Accel>(
     options: &BatchOptions,
 ) -> Result<(), BatchError> {
     check_lengths(rays.len(), occluded.len())?;
-    if rays.len() < options.min_batch {
+    if ray_by_ray(rays, options) {
         for (ray, out) in rays.iter().zip(occluded.iter_mut()) {
             *out = single::occluded_with(accel, ray, options.kernel);
         }
@@ -346,7 +349,7 @@ pub(crate) fn for_each_hit_batch_with<A: Accel>(
     options: &BatchOptions,
     f: &(dyn Fn(usize, Hit) + Sync),
 ) {
-    if rays.len() < options.min_batch {
+    if ray_by_ray(rays, options) {
         for (i, ray) in rays.iter().enumerate() {
             single::for_each_hit_with(accel, ray, options.kernel, &mut |h| f(i, h));
         }
