@@ -12,26 +12,27 @@ use crate::common::meshes::{bunny, icosphere, icosphere_with_duplicates};
 use crate::common::oracles::{HitBits, opt_bits};
 use crate::common::rays::{hard_rays, incoherent, with_range_variant};
 use crate::common::rng::{in_cube, seeded};
+use crate::common::tier::Tier;
 use crate::common::zoo::{LEAF_SIZES, all_structures, build};
 use raybatch::{
     AabbTree, AccelKind, BatchQueries, BuildOptions, ChildOrdering, Kernel, RayQueries,
 };
 use rayon::prelude::*;
 
-/// 100,000 rays (the hard rays of an icosphere with duplicates, then random rays through its
-/// bounds, some with `tmin = 0.3 tmax`) on three structures of each kind (each leaf size and
-/// each ordering once per kind, nine with three kinds): every query with one combination, closest
-/// and any hit with another.
-#[test]
-fn hundred_thousand_rays() {
+/// 100,000 rays (20,000 in the sample: the hard rays of an icosphere with duplicates, then
+/// random rays through its bounds, some with `tmin = 0.3 tmax`) on three structures of each
+/// kind (each leaf size and each ordering once per kind): every query with one combination,
+/// closest and any hit with another.
+fn large_batches(tier: Tier) {
+    let count = tier.pick(20_000, 100_000);
     let mesh = icosphere_with_duplicates(3);
     let mut rays = hard_rays(&mesh, 9);
     let mut rng = seeded(10);
-    while rays.len() < 100_000 {
+    while rays.len() < count {
         let (origin, target) = (in_cube(&mut rng, 2.0), in_cube(&mut rng, 1.0));
         rays.push(with_range_variant(rays.len(), origin, target));
     }
-    rays.truncate(100_000);
+    rays.truncate(count);
     let zoo = all_structures(&mesh);
     let all = all_combos(1, 0);
     // Per kind: leaf 1 fixed, leaf 4 split-axis, leaf 16 PNS (the zoo is kind-major, then leaf
@@ -53,7 +54,7 @@ fn hundred_thousand_rays() {
         assert_eq!(combos.len(), 2);
         combos[0].min_chunk = 4096;
         for (j, combo) in combos.iter().enumerate() {
-            let what = format!("{} {combo:?} (100k rays)", tree.name);
+            let what = format!("{} {combo:?} ({count} rays)", tree.name);
             let closest = batched_closest(tree, &rays, combo).unwrap();
             ok(compare_closest(&what, &rays, &closest, &exp.closest));
             let occluded = batched_occluded(tree, &rays, combo).unwrap();
@@ -64,6 +65,17 @@ fn hundred_thousand_rays() {
             }
         }
     }
+}
+
+#[test]
+fn large_batches_sample() {
+    large_batches(Tier::Sample);
+}
+
+#[test]
+#[ignore = "heavy: 100,000 rays on three structures of each kind (the full tier)"]
+fn hundred_thousand_rays() {
+    large_batches(Tier::Full);
 }
 
 /// Closest hit of `count` incoherent rays on the Stanford bunny, batched with the default
@@ -89,6 +101,12 @@ fn bunny_closest(count: usize) {
 }
 
 #[test]
+fn bunny_incoherent_closest_sample() {
+    bunny_closest(100_000);
+}
+
+#[test]
+#[ignore = "heavy: a million rays (the full tier)"]
 fn bunny_1m_incoherent_closest() {
     bunny_closest(1_000_000);
 }

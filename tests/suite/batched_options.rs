@@ -17,27 +17,45 @@ use crate::common::batch::{
 use crate::common::meshes::{icosphere, icosphere_all_duplicated, icosphere_with_duplicates};
 use crate::common::oracles::bits;
 use crate::common::rays::{every_nth, hard_rays};
+use crate::common::tier::Tier;
 use crate::common::zoo::all_structures;
 use raybatch::{BatchError, BatchOrdering, Interleave, Kernel, PartitionKernel, Ray};
 
-/// Every structure with every one of the 2304 combinations of kernel, batch ordering, partition
-/// kernel, `single_ray_below`, `max_chunk`, threads and interleaving, on a sample of the hard rays of an
-/// icosphere with duplicate triangles.
-#[test]
-fn every_option_combination_on_every_tree() {
+/// Every structure with the 2304 combinations of kernel, batch ordering, partition kernel,
+/// `single_ray_below`, `max_chunk`, threads and interleaving, on a sample of the hard rays of
+/// an icosphere with duplicate triangles: all of them for every structure in the full tier; in
+/// the sample, 24 per structure, which together cover every combination at least once.
+fn option_combinations(tier: Tier) {
     let mesh = icosphere_with_duplicates(1);
     let rays = every_nth(&hard_rays(&mesh, 1), 11);
     assert!(rays.len() > 120, "{}", rays.len());
     let zoo = all_structures(&mesh);
     let combos = all_combos(1, 0);
-    ok(check_zoo(&zoo, &rays, |_| combos.clone()));
+    match tier {
+        Tier::Sample => {
+            assert!(zoo.len() * 24 >= combos.len());
+            ok(check_zoo(&zoo, &rays, |t| spread_combos(&combos, t, 24)))
+        }
+        Tier::Full => ok(check_zoo(&zoo, &rays, |_| combos.clone())),
+    }
+}
+
+#[test]
+fn option_combinations_sample() {
+    option_combinations(Tier::Sample);
+}
+
+#[test]
+#[ignore = "heavy: every structure x every option combination (the full tier)"]
+fn every_option_combination_on_every_tree() {
+    option_combinations(Tier::Full);
 }
 
 /// All the hard rays (aimed at every vertex and edge, axis-parallel with signed zeros, windows,
 /// segments, invalid rays) on a plain icosphere and two with duplicate triangles, every
-/// structure: six of the 2304 combinations per structure (different ones for each structure), plus one with the default `min_chunk` (4096) and `min_batch` (32).
-#[test]
-fn hard_rays_on_icospheres() {
+/// structure: six of the 2304 combinations per structure (two in the sample; different ones
+/// for each structure), plus one with the default `min_chunk` (4096) and `min_batch` (32).
+fn hard_rays_on_icospheres(tier: Tier) {
     for (name, mesh) in [
         ("icosphere", icosphere(1)),
         ("icosphere+dups", icosphere_with_duplicates(2)),
@@ -48,12 +66,23 @@ fn hard_rays_on_icospheres() {
         let all = all_combos(1, 0);
         let defaults = all_combos(4096, 32);
         ok(check_zoo(&zoo, &rays, |t| {
-            let mut c = spread_combos(&all, t, 6);
+            let mut c = spread_combos(&all, t, tier.pick(2, 6));
             c.extend(spread_combos(&defaults, t + 5, 1));
             c
         })
         .map_err(|e| format!("{name}: {e}")));
     }
+}
+
+#[test]
+fn hard_rays_on_icospheres_sample() {
+    hard_rays_on_icospheres(Tier::Sample);
+}
+
+#[test]
+#[ignore = "heavy: six option combinations per structure (the full tier)"]
+fn hard_rays_on_icospheres_full() {
+    hard_rays_on_icospheres(Tier::Full);
 }
 
 /// The default-option entry points (`cast_rays`, `occluded_batch`, `for_each_hit_batch`) in the

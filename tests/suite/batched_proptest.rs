@@ -3,7 +3,7 @@
 //! random batches of rays (some with `tmin > 0`, some invalid) and random option combinations,
 //! for every structure of the zoo; in order and shuffled.
 
-use crate::common::batch::{check_shuffled, check_zoo, combo_strategy};
+use crate::common::batch::{Combo, check_shuffled, check_zoo, combo_strategy};
 use crate::common::oracles::describe;
 use crate::common::rays::invalid_rays;
 use crate::common::strategies::{RaySpec, aimed_ray_spec, mesh_strategy, ray_spec};
@@ -57,29 +57,46 @@ fn resolve_all(specs: &[(RaySpec, Tweak)], mesh: &Mesh) -> Vec<Ray> {
     specs.iter().map(|(s, t)| apply(s, *t, mesh)).collect()
 }
 
-proptest! {
-    #![proptest_config(ProptestConfig::with_cases(96))]
+/// Random triangle soups (duplicates, degenerate and coplanar triangles, sometimes over an
+/// icosphere), random batches of rays, every structure, two random option combinations each.
+fn batched_equals_single_ray(
+    mesh: &Mesh,
+    specs: &[(RaySpec, Tweak)],
+    combos: &[Combo],
+) -> Result<(), TestCaseError> {
+    let rays = resolve_all(specs, mesh);
+    let zoo = all_structures(mesh);
+    check_zoo(&zoo, &rays, |t| combos[2 * t..2 * t + 2].to_vec())
+        .map_err(|e| TestCaseError::fail(format!("{e}\nmesh: {}", describe(mesh))))
+}
 
-    /// Random triangle soups (duplicates, degenerate and coplanar triangles, sometimes over an
-    /// icosphere), random batches of rays, every structure, two random option combinations
-    /// each.
+/// The same batches shuffled: results mapped back to the original order are the same.
+fn ray_order_does_not_matter(
+    mesh: &Mesh,
+    specs: &[(RaySpec, Tweak)],
+    seed: u64,
+    combos: &[Combo],
+) -> Result<(), TestCaseError> {
+    let rays = resolve_all(specs, mesh);
+    for (t, tree) in all_structures(mesh).iter().enumerate() {
+        check_shuffled(tree, &rays, seed, &combos[t])
+            .map_err(|e| TestCaseError::fail(format!("{e}\nmesh: {}", describe(mesh))))?;
+    }
+    Ok(())
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(24))]
+
     #[test]
     fn prop_batched_equals_single_ray(
         mesh in mesh_strategy(),
         specs in batch_strategy(),
         combos in prop::collection::vec(combo_strategy(), 2 * ZOO_SIZE),
     ) {
-        let rays = resolve_all(&specs, &mesh);
-        let zoo = all_structures(&mesh);
-        check_zoo(&zoo, &rays, |t| combos[2 * t..2 * t + 2].to_vec())
-            .map_err(|e| TestCaseError::fail(format!("{e}\nmesh: {}", describe(&mesh))))?;
+        batched_equals_single_ray(&mesh, &specs, &combos)?;
     }
-}
 
-proptest! {
-    #![proptest_config(ProptestConfig::with_cases(48))]
-
-    /// The same batches shuffled: results mapped back to the original order are the same.
     #[test]
     fn prop_ray_order_does_not_matter(
         mesh in mesh_strategy(),
@@ -87,10 +104,32 @@ proptest! {
         seed in any::<u64>(),
         combos in prop::collection::vec(combo_strategy(), ZOO_SIZE),
     ) {
-        let rays = resolve_all(&specs, &mesh);
-        for (t, tree) in all_structures(&mesh).iter().enumerate() {
-            check_shuffled(tree, &rays, seed, &combos[t])
-                .map_err(|e| TestCaseError::fail(format!("{e}\nmesh: {}", describe(&mesh))))?;
-        }
+        ray_order_does_not_matter(&mesh, &specs, seed, &combos)?;
+    }
+}
+
+// The full tier: four times the cases.
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(96))]
+
+    #[test]
+    #[ignore = "heavy: 96 random cases (the full tier)"]
+    fn prop_batched_equals_single_ray_full(
+        mesh in mesh_strategy(),
+        specs in batch_strategy(),
+        combos in prop::collection::vec(combo_strategy(), 2 * ZOO_SIZE),
+    ) {
+        batched_equals_single_ray(&mesh, &specs, &combos)?;
+    }
+
+    #[test]
+    #[ignore = "heavy: 96 random cases (the full tier)"]
+    fn prop_ray_order_does_not_matter_full(
+        mesh in mesh_strategy(),
+        specs in batch_strategy(),
+        seed in any::<u64>(),
+        combos in prop::collection::vec(combo_strategy(), ZOO_SIZE),
+    ) {
+        ray_order_does_not_matter(&mesh, &specs, seed, &combos)?;
     }
 }

@@ -7,7 +7,8 @@
 //! - [`oracles`]: the brute-force reference, bit-for-bit comparisons, agreement checks;
 //! - [`strategies`]: proptest strategies for meshes and rays;
 //! - [`batch`]: the option space and single-ray reference of the batched queries;
-//! - [`scenes`]: scene layouts and the scene oracle (brute force over every instance).
+//! - [`scenes`]: scene layouts and the scene oracle (brute force over every instance);
+//! - [`tier`]: a heavy case's deterministic sample (default run) or all of it (ignored tier).
 //!
 //! Each test binary uses only part of them, hence `dead_code` is allowed.
 #![allow(dead_code)]
@@ -19,4 +20,5 @@ pub mod rays;
 pub mod rng;
 pub mod scenes;
 pub mod strategies;
+pub mod tier;
 pub mod zoo;
