@@ -146,7 +146,7 @@ pub trait Footprint {
     fn heap_bytes(&self) -> usize;
 
     /// Bytes kept beside the structure only to report hits in the caller's triangle ids (the
-    /// permutation [`crate::permuted::Permuted`] holds for a structure that reorders the
+    /// permutation an [`crate::AnyAccel`] keeps beside a zero-byte tree, which reorders the
     /// mesh); 0 for structures that keep the ids.
     fn id_map_bytes(&self) -> usize {
         0
@@ -389,16 +389,6 @@ impl<'a> RayStream<'a> {
         match &self.storage {
             Storage::Lanes(lanes) => lanes.id(lane),
             Storage::Records(records) => records.ids[lane],
-        }
-    }
-
-    /// Current range end of ray `i` (`-inf` once the ray is done).
-    #[inline(always)]
-    pub fn tmax(&self, i: usize) -> f32 {
-        let lane = self.lane(i);
-        match &self.storage {
-            Storage::Lanes(lanes) => lanes.tmax(lane),
-            Storage::Records(records) => records.rays[lane].tmax,
         }
     }
 

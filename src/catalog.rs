@@ -28,9 +28,9 @@ use crate::wide::{QuantizedWideTree, QuantizedWideTree8, WideTree, WideTree8};
 use crate::zbt::{HybridOptions, HybridTree, Rejected, ZbtError, ZbtOptions, ZeroByteTree};
 
 /// What every structure of the list is: the bound [`KindTask::run`] gets its tree with.
-pub trait Structure: Accel + RayQueries + BatchQueries + Footprint + Send + 'static {}
+pub trait Structure: RayQueries + BatchQueries + Footprint + Send + Sync + 'static {}
 
-impl<A: Accel + RayQueries + BatchQueries + Footprint + Send + 'static> Structure for A {}
+impl<A: RayQueries + BatchQueries + Footprint + Send + Sync + 'static> Structure for A {}
 
 /// Code generic over the structure, run on the concrete tree inside an [`AnyAccel`] by
 /// [`AnyAccel::run`] (one `match` per call, then the tree's own code).
@@ -160,7 +160,7 @@ impl AccelKind {
     }
 
     /// Builds the structure over `mesh`. Every structure answers in `mesh`'s triangle ids:
-    /// the zero-byte trees, which reorder the triangles, are wrapped in [`Permuted`] (their
+    /// the zero-byte trees, which reorder the triangles, keep the permutation beside them (their
     /// [`Footprint::id_map_bytes`]) and read the options as [`ZbtOptions::from`] does; the grid
     /// and the hash take their default cells, the kd-tree only the leaf size.
     pub fn build(

@@ -37,7 +37,7 @@ impl Hit {
 
     /// The "no hit yet" placeholder of a closest-hit search over `[.., tmax]`: any real hit at
     /// `t <= tmax` is before it (its triangle id is `u32::MAX`, which no mesh uses).
-    pub const fn none_before(tmax: f32) -> Hit {
+    pub(crate) const fn none_before(tmax: f32) -> Hit {
         Hit {
             t: tmax,
             triangle: NO_TRIANGLE,
@@ -47,7 +47,7 @@ impl Hit {
     }
 
     /// `Some(self)` unless this is a [`Hit::none_before`] placeholder.
-    pub fn found(self) -> Option<Hit> {
+    pub(crate) fn found(self) -> Option<Hit> {
         (self.triangle != NO_TRIANGLE).then_some(self)
     }
 }

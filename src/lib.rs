@@ -19,64 +19,66 @@
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 //!
-//! Module map (ARCHITECTURE.md in the repository tells how they fit):
-//! - data: [`geom`] (rays, boxes, triangle kernels), [`mesh`] (validated meshes, OBJ);
-//! - the interface: [`accel`] (what every structure implements), [`hit`] (hits, the tie rule,
-//!   visitors), [`workspace`] (per-thread memory);
-//! - structures: [`bvh`] (binary BVHs: build, ordering, node formats), [`wide`] (the 4- and
-//!   8-wide BVHs collapsed from it; the 8-wide one is the default), [`zbt`] (the zero-byte
-//!   tree and its hybrid, no memory beside the mesh), [`grid`] (the uniform grid and the
-//!   spatial hash) and [`kdtree`], which split space;
-//! - engines: [`traverse`] (how a BVH walks one ray or a stream), [`batch`] (batch machinery);
-//! - adapters: [`permuted`] (a reordering structure answering in the original ids), [`scene`]
-//!   (many meshes placed as instances, answering in world space);
-//! - what users call: [`query`] (per-ray and batched queries, brute force), [`catalog`] (every
-//!   structure by name, behind one dynamic type), [`users`] (a line-of-sight request queue,
-//!   audio occlusion).
+//! What is here:
+//! - meshes and rays: [`Mesh`] (validated once; [`mesh`] also reads OBJ files and quantizes
+//!   vertices), [`Ray`], [`Hit`] (the tie rule: on equal `t` the lowest triangle id wins);
+//! - the structures, every one exact and answering alike: [`AccelKind`] names them,
+//!   [`AccelKind::for_mesh`] picks one, [`AccelKind::build`] builds it as an [`AnyAccel`];
+//!   each also has a type of its own ([`WideTree8`], [`AabbTree`], [`ZeroByteTree`], ...);
+//! - the queries every structure answers: [`RayQueries`] one ray at a time, [`BatchQueries`]
+//!   a batch at a time with the same answers bit for bit ([`BatchOptions`] holds the expert
+//!   knobs), [`Visitor`] for searches of your own, [`brute_force`] as the reference;
+//! - [`scene`]: many meshes placed as instances, with layers and edits between frames;
+//! - [`users`]: what games build on the queries: a line-of-sight request queue and audio
+//!   occlusion.
+//!
+//! ARCHITECTURE.md in the repository tells how the pieces fit; docs/benchmarks.md how fast
+//! each structure is.
 
 #![warn(missing_docs)]
 #![deny(unsafe_code)]
 
-pub mod accel;
-pub mod batch;
-pub mod bvh;
-pub mod catalog;
-pub mod geom;
-pub mod grid;
-pub mod hit;
+mod accel;
+mod batch;
+mod bvh;
+mod catalog;
+mod geom;
+mod grid;
+mod hit;
 mod huge_pages;
-pub mod kdtree;
+mod kdtree;
 pub mod mesh;
 mod parallel;
-pub mod permuted;
+mod permuted;
 mod prefetch;
-pub mod query;
+mod query;
 pub mod scene;
 #[cfg(test)]
 mod test_support;
-pub mod traverse;
+mod traverse;
 pub mod users;
-pub mod wide;
-pub mod workspace;
+mod wide;
+mod workspace;
 #[cfg(target_arch = "x86_64")]
 #[allow(unsafe_code)]
 mod x86;
 pub mod zbt;
 
-pub use accel::{Accel, Footprint, RayStream, StreamLayout};
+pub use accel::Footprint;
 pub use batch::{BatchOptions, BatchOrdering, Interleave, PartitionKernel};
 pub use bvh::{
-    AabbTree, BuildError, BuildOptions, Bvh, ChildOrdering, LeafCopy, QuantizedAabbTree,
+    AabbTree, BuildError, BuildOptions, ChildOrdering, LeafCopy, MAX_LEAF_SIZE, QuantizedAabbTree,
+    QuantizedVertexTree,
 };
 pub use catalog::{AccelKind, AnyAccel, KindTask, Structure};
 pub use geom::{Aabb, Kernel, Ray, RayError};
 pub use glam;
 pub use grid::{GridOptions, SpatialHash, UniformGrid};
-pub use hit::{Hit, Visitor};
+pub use hit::{Hit, RAY_DONE, Visitor};
 pub use kdtree::KdTree;
 pub use mesh::{Mesh, MeshError};
+pub use query::brute_force;
 pub use query::{BatchError, BatchQueries, RayQueries};
 pub use scene::{InstanceDesc, Rigid, Scene, SceneError, SceneHit};
 pub use wide::{QuantizedWideTree, QuantizedWideTree8, WideTree, WideTree8};
-pub use workspace::{StructureId, Workspace};
-pub use zbt::{HybridTree, ZeroByteTree};
+pub use zbt::{HybridOptions, HybridTree, ZbtOptions, ZeroByteTree};

@@ -32,18 +32,6 @@ impl<A: Footprint> Permuted<A> {
     }
 }
 
-impl<A> Permuted<A> {
-    /// The wrapped structure (answering in its own ids).
-    pub fn inner(&self) -> &A {
-        &self.inner
-    }
-
-    /// `permutation()[new id] = original id`.
-    pub fn permutation(&self) -> &[u32] {
-        &self.to_original
-    }
-}
-
 /// One ray through the wrapped structure ([`Accel::trace`]).
 struct Ray1<'a, A: Accel, K> {
     inner: &'a A,

@@ -28,11 +28,6 @@ thread_local! {
 }
 
 impl Workspace {
-    /// An empty workspace (it grows on first use).
-    pub fn new() -> Self {
-        Self::default()
-    }
-
     /// Runs `f` with this thread's workspace (or a fresh one if a query is already using it,
     /// which happens when a hit callback issues another query).
     #[inline]
@@ -108,7 +103,7 @@ mod tests {
 
     #[test]
     fn one_scratch_per_type_kept_between_calls() {
-        let mut w = Workspace::new();
+        let mut w = Workspace::default();
         w.scratch::<Vec<u32>>().push(7);
         *w.scratch::<u64>() = 3;
         assert_eq!(w.scratch::<Vec<u32>>(), &[7]);

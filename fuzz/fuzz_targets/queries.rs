@@ -9,7 +9,7 @@ use std::sync::Arc;
 
 use libfuzzer_sys::fuzz_target;
 use raybatch::glam::Vec3;
-use raybatch::query::brute_force;
+use raybatch::brute_force;
 use raybatch::{AccelKind, BuildOptions, Kernel, Mesh, Ray};
 
 /// Reads the fuzzer's bytes as the mesh and rays.

@@ -273,7 +273,7 @@ mod tests {
 
     /// This thread's choice.
     fn thread_judge() -> MixingJudge {
-        type Scratch = <crate::WideTree as crate::Accel>::Scratch;
+        type Scratch = <crate::WideTree as crate::accel::Accel>::Scratch;
         crate::workspace::Workspace::with_local(|w| w.parts::<Scratch>().0.mixing)
     }
 

@@ -63,7 +63,7 @@ pub enum Interleave {
     /// The structure decides by its size and the stream: a wide tree interleaves when its
     /// nodes, leaf order and mesh pass 16 MiB, where waiting on memory dominates, and for
     /// streams of fewer than 2,048 rays once they pass 8 MiB, where few rays share each node;
-    /// but never for a dense octant's stream ([`crate::accel::RayStream::is_dense_octant`]: a
+    /// but never for a dense octant's stream (one octant holding 3/16 of its chunk: a
     /// camera's coherent rays, which share most nodes) or an octant stream of at least 4,096
     /// rays, nor for a stream of at least 131,072 rays (65,536 for any hit), which shares each
     /// node fetch among many rays.
@@ -111,7 +111,7 @@ pub struct BatchOptions {
     /// Smallest chunk handed to one rayon task.
     pub min_chunk: usize,
     /// Largest chunk traversed as one batch; `None` (the default) leaves it to the structure
-    /// ([`crate::accel::Accel::max_chunk`]: 65,536 rays for the wide trees, whose chunks walk
+    /// (65,536 rays for the wide trees, whose chunks walk
     /// incoherent rays as one stream, and 1,048,576 for incoherent rays on a wide tree beyond
     /// the caches (over 16 MiB with its mesh), where every node fetch is a trip to memory;
     /// 1,048,576 for the grids and kd-tree, which take one ray at a time; 131,072 for the

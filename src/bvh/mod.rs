@@ -31,7 +31,7 @@ use glam::Vec3;
 
 use crate::geom::Aabb;
 
-pub use build::{BuildError, BuildOptions};
+pub use build::{BuildError, BuildOptions, MAX_LEAF_SIZE};
 pub use leaves::LeafCopy;
 pub use ordering::ChildOrdering;
 pub use quantized_vertices::QuantizedVertexTree;

@@ -57,11 +57,6 @@ impl<N: NodeFormat> AabbTree<N> {
     pub fn mesh(&self) -> &Mesh {
         self.triangles.mesh()
     }
-
-    /// The shared mesh.
-    pub fn mesh_arc(&self) -> &Arc<Mesh> {
-        self.triangles.mesh()
-    }
 }
 
 impl<N: NodeFormat> Bvh for AabbTree<N> {

@@ -91,7 +91,7 @@ impl Aabb {
 
     /// Half the surface area (the SAH only compares areas, so the factor 2 is dropped).
     /// Zero for empty boxes.
-    pub fn half_area(&self) -> f32 {
+    pub(crate) fn half_area(&self) -> f32 {
         if self.is_empty() {
             return 0.0;
         }
@@ -107,7 +107,7 @@ impl Aabb {
     /// Conservative slab test: true if the ray may touch the box for some `t` in
     /// `[ray.tmin, tmax]`. Never false for a box the exact ray touches.
     #[inline(always)]
-    pub fn hit_by(&self, ray: &PreparedRay, tmax: f32) -> bool {
+    pub(crate) fn hit_by(&self, ray: &PreparedRay, tmax: f32) -> bool {
         self.entry(ray, tmax) < f32::INFINITY
     }
 
@@ -115,7 +115,7 @@ impl Aabb {
     /// `+inf` if it misses. Comparing the result with a smaller `tmax` later gives the same
     /// answer as testing again: `entry(ray, t2) < inf` iff `entry(ray, t1) <= t2` for `t2 <= t1`.
     #[inline(always)]
-    pub fn entry(&self, ray: &PreparedRay, tmax: f32) -> f32 {
+    pub(crate) fn entry(&self, ray: &PreparedRay, tmax: f32) -> f32 {
         box_entry(self.min, self.max, ray, tmax)
     }
 }

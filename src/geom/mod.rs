@@ -10,7 +10,4 @@ pub mod triangle;
 
 pub use aabb::Aabb;
 pub use ray::{PreparedRay, Ray, RayError, octant};
-pub use triangle::{
-    Kernel, KernelTask, MollerTrumbore, TriangleHit, TriangleTest, Watertight, WatertightAxis,
-    is_degenerate,
-};
+pub use triangle::{Kernel, KernelTask, MollerTrumbore, TriangleTest, Watertight, is_degenerate};

@@ -86,7 +86,7 @@ impl Kernel {
     /// Runs `task` monomorphized for this kernel and, for the watertight kernel, for the ray's
     /// dominant axis `kz` (so the axis permutation costs nothing in the inner loop).
     #[inline(always)]
-    pub fn dispatch<T: KernelTask>(self, kz: usize, task: T) -> T::Output {
+    pub(crate) fn dispatch<T: KernelTask>(self, kz: usize, task: T) -> T::Output {
         match (self, kz) {
             (Kernel::Watertight, 0) => task.run::<WatertightAxis<0>>(),
             (Kernel::Watertight, 1) => task.run::<WatertightAxis<1>>(),
@@ -99,7 +99,7 @@ impl Kernel {
     /// axis permutation per test ([`Watertight`]): for queries off the hot path, compiled once
     /// per kernel instead of once per axis.
     #[inline(always)]
-    pub fn dispatch_any_axis<T: KernelTask>(self, task: T) -> T::Output {
+    pub(crate) fn dispatch_any_axis<T: KernelTask>(self, task: T) -> T::Output {
         match self {
             Kernel::Watertight => task.run::<Watertight>(),
             Kernel::MollerTrumbore => task.run::<MollerTrumbore>(),

@@ -106,7 +106,7 @@ impl Coarse {
 }
 
 impl SpatialHash {
-    /// The default options: [`HASH_CELLS_PER_TRIANGLE`], no cap on the total cell count
+    /// The default options: `HASH_CELLS_PER_TRIANGLE` cells per triangle, no cap on the total cell count
     /// beyond `2^20` per axis.
     pub fn default_options() -> GridOptions {
         GridOptions {

@@ -32,8 +32,7 @@ mod table;
 pub(crate) mod uniform;
 pub(crate) mod walk;
 
-pub use hash::{HASH_CELLS_PER_TRIANGLE, SpatialHash};
+pub use hash::SpatialHash;
 pub use mailbox::Mailbox;
-pub use scratch::GridScratch;
 pub use sizing::GridOptions;
 pub use uniform::UniformGrid;

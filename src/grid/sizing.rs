@@ -40,9 +40,9 @@ pub struct GridOptions {
     /// Cells along x, y and z, if given: overrides the density and the shape (still capped
     /// by `max_cells`).
     pub resolution: Option<[u32; 3]>,
-    /// Shape the cells after the triangles' orientation (see the
-    /// [module docs](crate::grid::sizing)): long along the axis the surface faces most (a
-    /// height field gets columns: fine across, few slabs up). If false, cube cells.
+    /// Shape the cells after the triangles' orientation: long along the axis the surface faces
+    /// most, in proportion to the triangles' projected areas, at most 8:1 (a height field gets
+    /// columns: fine across, few slabs up). If false, cube cells.
     pub shaped_cells: bool,
 }
 

@@ -36,7 +36,7 @@ const LOOKAHEAD: usize = 4;
 /// it fits (large triangles in a fine grid would otherwise fill memory).
 const REFERENCES_PER_TRIANGLE: u64 = 16;
 
-/// A uniform grid over a mesh (see the [module docs](super)): cells of one size, each holding
+/// A uniform grid over a mesh: cells of one size, each holding
 /// the triangles whose boxes overlap it, walked front to back by an exact 3D-DDA.
 #[derive(Clone, Debug)]
 pub struct UniformGrid {

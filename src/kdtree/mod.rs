@@ -42,7 +42,8 @@ pub struct KdTree {
 impl KdTree {
     /// Builds the tree; nodes of more than `max_leaf_size` triangles are split while the SAH
     /// says it pays. An empty mesh (or one of degenerate triangles only) gives a tree every ray
-    /// misses; errors if the tree needs more than [`MAX_INDEX`] nodes or references.
+    /// misses; errors if the tree needs more nodes or references than its 8-byte nodes can
+    /// address.
     pub fn build(mesh: impl Into<Arc<Mesh>>, max_leaf_size: u32) -> Result<Self, BuildError> {
         let mesh = mesh.into();
         let (live, triangle_boxes, bounds) = live_triangles(&mesh)?;

@@ -2,7 +2,7 @@
 //!
 //! Slow and obviously right; the tests compare every tree, node format, ordering and batch
 //! size against it. It skips degenerate triangles exactly like the trees do and follows the same
-//! tie rule (see [`crate::query`]).
+//! tie rule (see [`crate::Hit`]).
 
 use crate::geom::{Kernel, MollerTrumbore, PreparedRay, Ray, TriangleTest, Watertight};
 use crate::hit::Hit;

@@ -1,11 +1,11 @@
 //! Filtering instances by layer, as game engines do: each instance has a mask of layers
-//! ([`crate::scene::Instance::mask`]), a query a mask of the layers it sees, and an instance
+//! ([`super::Instance::mask`]), a query a mask of the layers it sees, and an instance
 //! takes part only if the two share a bit. The filter is applied in the top-level tree (each
 //! node knows the union of its instances' masks), so a filtered-out instance costs no
 //! transform and no triangle test.
 //!
-//! [`SceneView`] is a scene seen through one query mask; like the scene itself it is an
-//! [`crate::accel::Accel`], so every per-ray and batched query works on it.
+//! [`SceneView`] is a scene seen through one query mask; like the scene itself it answers every
+//! per-ray and batched query.
 
 use crate::scene::world::Scene;
 

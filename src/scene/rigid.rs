@@ -1,24 +1,5 @@
 //! [`Rigid`]: where an instance sits in the world (a rotation and a translation), and the one
 //! documented way a world ray is carried into the instance's mesh space.
-//!
-//! **The transform contract.** A scene answers a world ray on an instance by tracing the ray
-//! [`Rigid::ray_to_mesh`] returns, exactly (watertight kernel, tie rule) against the instance's
-//! mesh. That function is the definition: `origin' = M * (origin - translation)` and
-//! `dir' = M * dir` (the direction with subnormal components flushed, as every query does), with
-//! `M` the transpose of the rotation's matrix and each product evaluated as
-//! `M.x_axis * v.x + M.y_axis * v.y + M.z_axis * v.z`, left to right, without FMA; `tmin`
-//! and `tmax` are kept. An instance whose rotation is exactly the identity skips the product:
-//! `origin' = origin - translation`, `dir' = dir`, so at the identity transform a scene answers
-//! bit for bit as the bare tree.
-//!
-//! The direction is rotated, not renormalised: a rotation preserves lengths, so the mesh-space
-//! `t` is the world `t` (in units of the world ray's direction) up to the rounding of the
-//! products: the mesh-space origin and direction are each off by a few units in the last place
-//! of their own size, which moves a hit at mesh-space point `p` by about
-//! `10 eps (|origin - translation| + |p|)` along the ray (`eps = 2^-23`), so its `t` by that
-//! over `|dir|`: small next to `t` unless the origin is far from the instance compared with the
-//! hit distance. Hits of different instances are compared by that `t`, and the tie rule then
-//! picks the lowest global triangle id.
 
 use glam::{Mat3, Quat, Vec3};
 
@@ -33,6 +14,25 @@ pub const RIGID_TOLERANCE: f32 = 1e-4;
 /// A rigid transform, mesh space to world space: `world = rotation * mesh + translation`.
 /// Built only through [`Rigid::new`] (or the constants), so every value is finite and its
 /// rotation a unit quaternion.
+///
+/// **The transform contract.** A scene answers a world ray on an instance by tracing the ray
+/// [`Rigid::ray_to_mesh`] returns, exactly (watertight kernel, tie rule) against the instance's
+/// mesh. That function is the definition: `origin' = M * (origin - translation)` and
+/// `dir' = M * dir` (the direction with subnormal components flushed, as every query does), with
+/// `M` the transpose of the rotation's matrix and each product evaluated as
+/// `M.x_axis * v.x + M.y_axis * v.y + M.z_axis * v.z`, left to right, without FMA; `tmin`
+/// and `tmax` are kept. An instance whose rotation is exactly the identity skips the product:
+/// `origin' = origin - translation`, `dir' = dir`, so at the identity transform a scene answers
+/// bit for bit as the bare tree.
+///
+/// The direction is rotated, not renormalised: a rotation preserves lengths, so the mesh-space
+/// `t` is the world `t` (in units of the world ray's direction) up to the rounding of the
+/// products: the mesh-space origin and direction are each off by a few units in the last place
+/// of their own size, which moves a hit at mesh-space point `p` by about
+/// `10 eps (|origin - translation| + |p|)` along the ray (`eps = 2^-23`), so its `t` by that
+/// over `|dir|`: small next to `t` unless the origin is far from the instance compared with the
+/// hit distance. Hits of different instances are compared by that `t`, and the tie rule then
+/// picks the lowest global triangle id.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Rigid {
     rotation: Quat,

@@ -3,10 +3,9 @@
 //! change its layers, deform a mesh).
 //!
 //! Global triangle ids number the instances' triangles one instance after the other: instance
-//! `i`'s triangle `j` is `first_id(i) + j`. A scene answers every query of
-//! [`crate::query`] in global ids (it is an [`crate::accel::Accel`]), so the tie rule "lowest
-//! id on equal `t`" reads "lowest instance, then lowest triangle"; [`Scene::resolve`] turns a
-//! [`Hit`] back into an instance and a triangle.
+//! `i`'s triangle `j` is `first_id(i) + j`. A scene answers every query in global ids, so the
+//! tie rule "lowest id on equal `t`" reads "lowest instance, then lowest triangle";
+//! [`Scene::resolve`] turns a [`Hit`] back into an instance and a triangle.
 
 use glam::Vec3;
 
@@ -38,7 +37,7 @@ pub struct SceneHit {
     pub instance: u32,
     /// The triangle's id in the instance's mesh.
     pub triangle: u32,
-    /// Distance along the world ray, in units of its direction (see [`crate::scene::rigid`]).
+    /// Distance along the world ray, in units of its direction (see [`Rigid`]).
     pub t: f32,
     /// Barycentric weight of the triangle's second corner.
     pub u: f32,
@@ -205,8 +204,9 @@ impl Scene {
 
     /// Moves mesh `mesh`'s vertices to `vertices` (same count, same triangles: a deformation)
     /// and refits its tree and every instance of it, without a rebuild. Only meshes built as
-    /// [`crate::catalog::AccelKind::Aabb`] can be refitted (see [`crate::scene::refit`]); on
-    /// error nothing changes.
+    /// [`crate::AccelKind::Aabb`] can be refitted: every box is recomputed from the new
+    /// corners, so answers stay exact (a tree far from its build's positions gets slower:
+    /// rebuild it then). On error nothing changes.
     pub fn deform_mesh(&mut self, mesh: usize, vertices: Vec<Vec3>) -> Result<(), SceneError> {
         let meshes = self.meshes.len();
         let tree = self

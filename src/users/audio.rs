@@ -35,7 +35,7 @@ use crate::scene::Scene;
 ///
 /// Known limit: the tolerance is relative to `t` only, while a rotated instance's rounding of
 /// `t` grows with the distance from the ray's origin to the instance (see
-/// [`crate::scene::rigid`]); at a seam between two *rotated* instances far from a source that
+/// [`crate::Rigid`]); at a seam between two *rotated* instances far from a source that
 /// is close to the seam, the two sides' `t` may differ by more, and the seam would count as two
 /// crossings. Seams between translated instances and shared edges within a mesh are exact.
 pub const CROSSING_TOLERANCE: f32 = 1.0 / 65536.0;

@@ -63,7 +63,8 @@ impl BoxCache {
     }
 
     /// Bytes this cache holds (0 until first used).
-    pub fn heap_bytes(&self) -> usize {
+    #[cfg(test)]
+    fn heap_bytes(&self) -> usize {
         self.entries.len() * size_of::<Entry>()
     }
 }

@@ -384,3 +384,93 @@ impl<const TOP_LEVEL: bool> Footprint for PackedTree<TOP_LEVEL> {
         self.top.len() * size_of::<TopNode>()
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::test_support::bunny;
+
+    /// The [`Bvh`] contract the traversals rely on, node by node: every node's box (read as the
+    /// engines read it, through the parent's box) holds its own triangles and its children's
+    /// boxes.
+    fn check<B: Bvh>(name: &str, tree: &B) {
+        if tree.is_empty() {
+            return;
+        }
+        let mut cache = B::Cache::default();
+        let mut stack = vec![(0u32, tree.root_bounds(&mut cache))];
+        let mut visited = 0;
+        while let Some((index, bounds)) = stack.pop() {
+            visited += 1;
+            let node = tree.node(index);
+            for slot in node.first..node.first + node.count {
+                let (_, corners) = tree.triangle(slot);
+                for c in corners {
+                    assert!(
+                        c.cmpge(bounds.min).all() && c.cmple(bounds.max).all(),
+                        "{name}: node {index}: corner {c} outside {bounds:?}"
+                    );
+                }
+            }
+            if node.has_children() {
+                let kept = B::keep(&bounds);
+                let boxes = tree.child_bounds(&node, &kept, &mut cache);
+                for (child, child_box) in node.children.into_iter().zip(boxes) {
+                    assert!(
+                        child_box.min.cmpge(bounds.min).all()
+                            && child_box.max.cmple(bounds.max).all(),
+                        "{name}: child {child} of {index}: {child_box:?} not in {bounds:?}"
+                    );
+                    stack.push((child, child_box));
+                }
+            }
+        }
+        assert!(visited > 0);
+    }
+
+    /// Part of the bunny, the same with every triangle twice, a fan with degenerate triangles,
+    /// and the empty mesh.
+    fn meshes() -> Vec<(&'static str, Mesh)> {
+        let bunny = bunny();
+        let vertices = bunny.vertices().to_vec();
+        let part = bunny.triangles()[..6000].to_vec();
+        let twice = part.iter().flat_map(|&t| [t, t]).collect();
+        let fan = Mesh::new(
+            vec![
+                Vec3::new(0.0, 0.0, 1.0),
+                Vec3::new(1.0, 0.0, 1.0),
+                Vec3::new(0.0, 1.0, 1.0),
+                Vec3::new(2.0, 2.0, 1.0),
+            ],
+            vec![[0, 0, 1], [0, 1, 2], [0, 1, 1], [1, 3, 2], [0, 1, 3]],
+        );
+        vec![
+            ("bunny part", Mesh::new(vertices.clone(), part).unwrap()),
+            ("bunny part twice", Mesh::new(vertices, twice).unwrap()),
+            ("fan", fan.unwrap()),
+            ("empty", Mesh::new(vec![], vec![]).unwrap()),
+        ]
+    }
+
+    /// Every box holds its triangles and its children's boxes, with faces inherited or not,
+    /// for every slack and for the hybrid's chunks.
+    #[test]
+    fn every_box_holds_its_triangles_and_children() {
+        for (mesh_name, mesh) in meshes() {
+            for inherit_slack in [0.0, 0.1, 1.0, f32::INFINITY] {
+                let options = ZbtOptions {
+                    inherit_slack,
+                    ..ZbtOptions::default()
+                };
+                let (tree, _) = super::super::ZeroByteTree::build(mesh.clone(), &options).unwrap();
+                check(&format!("zbt {mesh_name} slack {inherit_slack}"), &tree);
+                let hybrid = HybridOptions {
+                    zbt: options,
+                    chunk_size: 16,
+                };
+                let (tree, _) = HybridTree::build(mesh.clone(), &hybrid).unwrap();
+                check(&format!("hybrid {mesh_name} slack {inherit_slack}"), &tree);
+            }
+        }
+    }
+}

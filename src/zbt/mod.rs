@@ -1,10 +1,10 @@
-//! The zero-byte AABB tree (seed 002) and its hybrid: trees that need no memory beside the mesh.
+//! The zero-byte AABB tree and its hybrid: trees that need no memory beside the mesh.
 //!
 //! A zero-byte tree reorders the mesh's triangles so that every node is a run of 1 to 8
 //! consecutive triangles whose box *is* the node's box (on the faces it does not inherit from
 //! its parent's box), recomputed when needed, and hides the node's links, triangle count,
 //! child-ordering byte and its children's inherited faces in the spare high bits of the vertex
-//! indices. It is a [`crate::bvh::Bvh`] whose nodes own triangles *and* have children, so both
+//! indices. It is a binary tree whose nodes own triangles *and* have children, so both
 //! traversal engines run it unchanged; the batched engine recomputes each node's box once per
 //! batch visit.
 //!
@@ -12,7 +12,7 @@
 //! - `cover`: which triangles define a node's box;
 //! - `build`: the SAH build around those covers, and the faces children inherit;
 //! - `packed`: reading nodes, boxes and triangles back from the packed mesh;
-//! - [`cache`]: the per-thread box cache shared by every tree;
+//! - `cache`: the per-thread box cache shared by every tree ([`BOX_CACHE_BYTES`]);
 //! - `hybrid`: [`PackedTree`], the one implementation of both trees: [`HybridTree`], an AABB
 //!   tree whose leaves are zero-byte trees over chunks of triangles (which lifts the triangle
 //!   limit), and [`ZeroByteTree`], the same without the top level;
@@ -23,18 +23,18 @@
 //! To use per-triangle data (materials), reorder it once: `data_new[i] = data[permutation[i]]`;
 //! or keep the permutation and map each hit's id. The vertex array and each triangle's corner
 //! order are never changed; [`ZeroByteTree::into_mesh`] gives back a plain mesh (in the tree's
-//! order). [`crate::catalog`] wraps both trees in [`crate::permuted::Permuted`] so that they
-//! answer in the original ids like every other structure.
+//! order). [`crate::AnyAccel`] keeps the permutation beside both trees so that they answer in
+//! the original ids like every other structure.
 
 mod build;
-pub mod cache;
+mod cache;
 mod cover;
 mod hybrid;
 mod layout;
 mod packed;
 mod tree;
 
-pub use cache::BoxCache;
+pub use cache::BYTES as BOX_CACHE_BYTES;
 pub use hybrid::{HybridOptions, HybridTree, PackedTree};
 pub use layout::{MAX_TRIANGLES, MAX_VERTICES};
 pub use tree::{ZbtStats, ZeroByteTree};
@@ -52,7 +52,8 @@ pub struct ZbtOptions {
     /// exact, a negative or NaN slack inherits nothing. The default 0.1 measured best (0.1 to
     /// 0.25 within noise; 1 doubles the time: boxes too loose), see the README.
     pub inherit_slack: f32,
-    /// Keep recomputed boxes in the per-thread [`BoxCache`].
+    /// Keep recomputed boxes in a per-thread cache ([`BOX_CACHE_BYTES`]) shared by every
+    /// zero-byte tree the thread queries; off, every box is recomputed at every visit.
     pub box_cache: bool,
     /// How internal nodes order their children.
     pub ordering: ChildOrdering,

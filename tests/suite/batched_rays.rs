@@ -12,7 +12,7 @@ use crate::common::meshes::{icosphere_all_duplicated, icosphere_with_duplicates}
 use crate::common::oracles::opt_bits;
 use crate::common::rays::{every_nth, hard_rays, invalid_rays};
 use crate::common::zoo::all_structures;
-use raybatch::query::brute_force;
+use raybatch::brute_force;
 use raybatch::{Hit, Kernel, Ray};
 
 /// Invalid rays (NaN or infinite origin or direction, zero or subnormal direction, empty or

@@ -7,7 +7,7 @@ use crate::common::meshes::{icosphere, transformed};
 use crate::common::oracles::bits;
 use crate::common::rays::hard_rays;
 use glam::DVec3;
-use raybatch::hit::RAY_DONE;
+use raybatch::RAY_DONE;
 use raybatch::zbt::ZbtOptions;
 use raybatch::{
     AccelKind, BuildOptions, Hit, Kernel, KindTask, Mesh, Ray, RayQueries, Structure, Visitor,

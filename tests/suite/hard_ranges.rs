@@ -8,7 +8,7 @@ use crate::common::oracles::{assert_matches_brute_force, unanimous_hit};
 use crate::common::rng::{RngExt, in_cube, seeded};
 use crate::common::zoo::all_structures;
 use glam::Vec3;
-use raybatch::query::brute_force;
+use raybatch::brute_force;
 use raybatch::{Kernel, Mesh, Ray};
 
 /// The triangles that use `vertex`.

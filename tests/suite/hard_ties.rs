@@ -11,7 +11,7 @@ use crate::common::oracles::{
 use crate::common::rng::{RngExt, in_box, in_cube, seeded};
 use crate::common::zoo::all_structures;
 use glam::Vec3;
-use raybatch::query::brute_force;
+use raybatch::brute_force;
 use raybatch::{Hit, Kernel, Mesh, Ray};
 
 /// Regression: two copies of one triangle, a ray aimed at a corner. The kernel's `t` used to

@@ -6,7 +6,7 @@ use crate::common::oracles::{bits, closest_is_first_of_all_hits, compare_all, de
 use crate::common::strategies::{RaySpec, aimed_ray_spec, mesh_strategy, ray_spec};
 use crate::common::zoo::all_structures;
 use proptest::prelude::*;
-use raybatch::query::brute_force;
+use raybatch::brute_force;
 use raybatch::{Kernel, Mesh};
 
 fn check(mesh: &Mesh, specs: &[RaySpec]) -> Result<(), TestCaseError> {

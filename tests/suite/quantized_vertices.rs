@@ -12,7 +12,7 @@ use crate::common::rng::seeded;
 use crate::common::strategies::{RaySpec, mesh_strategy, ray_spec};
 use crate::common::zoo::Built;
 use proptest::prelude::*;
-use raybatch::bvh::QuantizedVertexTree;
+use raybatch::QuantizedVertexTree;
 use raybatch::mesh::quantized::QuantizedMesh;
 use raybatch::{AabbTree, BuildOptions, Hit, Kernel, Mesh, QuantizedAabbTree, RayQueries, Visitor};
 
@@ -76,11 +76,7 @@ fn bunny_at_16_bits_half_the_vertex_bytes_and_exact_for_its_mesh() {
     let q = QuantizedMesh::new(&mesh, 16).unwrap();
     assert!(2 * q.vertex_bytes() <= size_of_val(mesh.vertices()));
     let tree = QuantizedVertexTree::build(q.clone(), &BuildOptions::default()).unwrap();
-    let exact = AabbTree::<raybatch::bvh::nodes::FullNodes>::build(
-        q.dequantize(),
-        &BuildOptions::default(),
-    )
-    .unwrap();
+    let exact: AabbTree = AabbTree::build(q.dequantize(), &BuildOptions::default()).unwrap();
     let rays = incoherent(&mesh, 2_000, &mut seeded(16));
     for ray in &rays {
         assert_eq!(

@@ -5,7 +5,7 @@ use crate::common::meshes::{assert_closed_and_outward, edges, icosphere};
 use crate::common::rng::{RngExt, StdRng, in_cube, seeded};
 use crate::common::zoo::structures_with;
 use glam::Vec3;
-use raybatch::query::brute_force;
+use raybatch::brute_force;
 use raybatch::{AccelKind, ChildOrdering, Kernel, Mesh, Ray};
 
 const RAYS: usize = 100_000;

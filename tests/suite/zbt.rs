@@ -8,11 +8,10 @@ use crate::common::oracles::{HitBits, all_bits, opt_bits};
 use crate::common::rays::hard_rays;
 use crate::common::tier::Tier;
 use glam::Vec3;
-use raybatch::query::brute_force;
+use raybatch::brute_force;
 use raybatch::zbt::{HybridOptions, MAX_TRIANGLES, MAX_VERTICES, ZbtError, ZbtOptions};
 use raybatch::{
-    BatchOptions, BatchQueries, Bvh, Footprint, HybridTree, Kernel, Mesh, Ray, RayQueries,
-    ZeroByteTree,
+    BatchOptions, BatchQueries, Footprint, HybridTree, Kernel, Mesh, Ray, RayQueries, ZeroByteTree,
 };
 
 /// At most about 1,500 of the mesh's hard rays, spread over all of them (brute force is slow).
@@ -377,62 +376,5 @@ fn box_cache_is_shared_but_never_mixes_trees() {
     for ray in &rays {
         let expected = brute_force::cast_ray(&c_mesh, ray, Kernel::Watertight);
         assert_eq!(opt_bits(c.cast_ray(ray)), opt_bits(expected));
-    }
-}
-
-/// The `Bvh` contract the traversals rely on, checked node by node: every node's box (read as
-/// the engines read it, through the parent's box) holds its own triangles and its children's
-/// boxes, with faces inherited or not, for every slack and for the hybrid's chunks.
-#[test]
-fn every_box_holds_its_triangles_and_children() {
-    fn check<B: Bvh>(name: &str, tree: &B) {
-        if tree.is_empty() {
-            return;
-        }
-        let mut cache = B::Cache::default();
-        let mut stack = vec![(0u32, tree.root_bounds(&mut cache))];
-        let mut visited = 0;
-        while let Some((index, bounds)) = stack.pop() {
-            visited += 1;
-            let node = tree.node(index);
-            for slot in node.first..node.first + node.count {
-                let (_, corners) = tree.triangle(slot);
-                for c in corners {
-                    assert!(
-                        c.cmpge(bounds.min).all() && c.cmple(bounds.max).all(),
-                        "{name}: node {index}: corner {c} outside {bounds:?}"
-                    );
-                }
-            }
-            if node.has_children() {
-                let kept = B::keep(&bounds);
-                let boxes = tree.child_bounds(&node, &kept, &mut cache);
-                for (child, child_box) in node.children.into_iter().zip(boxes) {
-                    assert!(
-                        child_box.min.cmpge(bounds.min).all()
-                            && child_box.max.cmple(bounds.max).all(),
-                        "{name}: child {child} of {index}: {child_box:?} not in {bounds:?}"
-                    );
-                    stack.push((child, child_box));
-                }
-            }
-        }
-        assert!(visited > 0);
-    }
-    for (mesh_name, mesh) in meshes() {
-        for inherit_slack in [0.0, 0.1, 1.0, f32::INFINITY] {
-            let options = ZbtOptions {
-                inherit_slack,
-                ..ZbtOptions::default()
-            };
-            let (tree, _) = ZeroByteTree::build(mesh.clone(), &options).unwrap();
-            check(&format!("zbt {mesh_name} slack {inherit_slack}"), &tree);
-            let hybrid = HybridOptions {
-                zbt: options,
-                chunk_size: 16,
-            };
-            let (tree, _) = HybridTree::build(mesh.clone(), &hybrid).unwrap();
-            check(&format!("hybrid {mesh_name} slack {inherit_slack}"), &tree);
-        }
     }
 }

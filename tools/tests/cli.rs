@@ -7,8 +7,8 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 use std::sync::atomic::{AtomicUsize, Ordering};
 
+use raybatch::brute_force;
 use raybatch::glam::Vec3;
-use raybatch::query::brute_force;
 use raybatch::{Kernel, Mesh, Ray};
 
 /// A quad at z = 1 written as one polygon (triangles 0 and 1), a triangle at z = 2 over part of

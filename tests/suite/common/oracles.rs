@@ -2,7 +2,7 @@
 //! for bit (closest hit, occlusion, every hit, both kernels), the tie rule, and the checks that
 //! every structure agrees (or misses) on a ray.
 
-use raybatch::query::brute_force;
+use raybatch::brute_force;
 use raybatch::{Hit, Kernel, Mesh, Ray};
 
 use super::zoo::Built;

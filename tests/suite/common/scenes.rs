@@ -6,7 +6,7 @@ use std::sync::Arc;
 
 use glam::{Quat, Vec3};
 use proptest::prelude::*;
-use raybatch::query::brute_force;
+use raybatch::brute_force;
 use raybatch::scene::{InstanceDesc, Rigid, Scene};
 use raybatch::{AccelKind, BuildOptions, Hit, Kernel, Mesh, Ray};
 

@@ -11,7 +11,7 @@ use std::path::PathBuf;
 
 use clap::builder::{PossibleValue, PossibleValuesParser, TypedValueParser};
 use clap::{Args, Parser, Subcommand, ValueEnum};
-use raybatch::bvh::build::MAX_LEAF_SIZE;
+use raybatch::MAX_LEAF_SIZE;
 use raybatch::{AccelKind, BatchOrdering, BuildOptions, Interleave, Kernel, LeafCopy};
 use raybatch_tools::scenes::RaySet;
 

@@ -18,7 +18,7 @@
 use std::path::Path;
 use std::sync::Arc;
 
-use raybatch::query::brute_force;
+use raybatch::brute_force;
 use raybatch::{AccelKind, AnyAccel, BuildOptions, ChildOrdering, Footprint, Kernel, Mesh};
 use raybatch_tools::report::{Record, Section};
 use raybatch_tools::scenes::{self, RaySet, Scene, SceneKind};
@@ -379,7 +379,7 @@ fn zero_memory(scene: &BenchScene, rays: &RaySets, rows: &[Row]) -> String {
          once instead).",
         thousands((brute * 1e6) as usize),
         thousands(sample.len()),
-        raybatch::zbt::cache::BYTES / 1024,
+        raybatch::zbt::BOX_CACHE_BYTES / 1024,
     )
 }
 

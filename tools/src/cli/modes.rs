@@ -15,7 +15,7 @@
 
 use std::sync::Arc;
 
-use raybatch::bvh::QuantizedVertexTree;
+use raybatch::QuantizedVertexTree;
 use raybatch::mesh::quantized::QuantizedMesh;
 use raybatch::{AccelKind, BatchOrdering, BuildOptions, Kernel, Mesh, Ray};
 use raybatch_tools::judge::{Reference, score};

@@ -294,7 +294,7 @@ fn city_sightline(rng: &mut SplitMix64, blocks: u32) -> Ray {
 #[cfg(test)]
 mod tests {
     use raybatch::Kernel;
-    use raybatch::query::brute_force;
+    use raybatch::brute_force;
 
     use super::*;
     use crate::scenes::{self, Scene};
