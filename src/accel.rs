@@ -46,7 +46,7 @@ pub trait Accel: Sync + Sized {
     /// [`crate::BatchOptions::ordering`] asks (the default). Structures whose walks take
     /// nothing from the stream's octant (each ray walked alone, in its own order: the grids,
     /// the kd-tree) say `false` and get each chunk as one stream, which keeps rays that start
-    /// near each other together for an order by origin (`crate::batch::origin_order`).
+    /// near each other together for an order by origin (`crate::traverse::origin_order`).
     const GROUP_BY_OCTANT: bool = true;
 
     /// Whether the octants holding less than a quarter of a chunk's rays share one stream of
@@ -320,7 +320,7 @@ impl<'a> RayStream<'a> {
 
     /// Prefetches ray `i`'s record and id (records layout; nothing in the lanes layout, whose
     /// walks take the rays in order): for walks that take the rays out of order
-    /// (`crate::batch::origin_order`), where each ray's record would be a cache miss.
+    /// (`crate::traverse::origin_order`), where each ray's record would be a cache miss.
     #[inline(always)]
     pub(crate) fn prefetch_ray(&self, i: usize) {
         let lane = self.lane(i);

@@ -11,8 +11,6 @@
 //! - `rays`: the same rays as an array of prepared records, for structures that walk rays by
 //!   index (the 4-wide tree, grids, the kd-tree).
 //! - `prepare_avx2`: the grouping's validity checks and prepared records eight rays at a time.
-//! - `origin_order`: a stream's rays taken one at a time in Morton order of their origins,
-//!   for structures that walk each ray alone (grids, kd-tree).
 //! - [`partition`]: one box against many lanes with move-to-front (AVX-512, AVX2, portable).
 //! - `scratch`: the per-thread arrays, kept in the thread's workspace.
 //!
@@ -24,7 +22,6 @@ pub(crate) mod group;
 pub(crate) mod lanes;
 pub(crate) mod mixing;
 pub mod options;
-pub(crate) mod origin_order;
 pub mod partition;
 #[cfg(target_arch = "x86_64")]
 #[allow(unsafe_code)]

@@ -25,7 +25,7 @@ use super::sizing::{GridOptions, cap, cell_shape, resolution};
 use super::table::CellTable;
 use super::uniform::{live_triangles, test_cell};
 use super::walk::{GridPlanes, bounds, linear_index, walk};
-use crate::batch::origin_order;
+use crate::traverse::origin_order;
 
 /// A triangle is stored at most this many times on average (else the cells are coarsened).
 const REFERENCES_PER_TRIANGLE: u64 = 16;
@@ -244,7 +244,7 @@ impl Accel for SpatialHash {
         tmax
     }
 
-    /// One ray at a time, in Morton order of their origins (`crate::batch::origin_order`).
+    /// One ray at a time, in Morton order of their origins (`crate::traverse::origin_order`).
     fn trace_stream<K: TriangleTest, V: Visitor>(
         &self,
         stream: &mut RayStream<'_>,

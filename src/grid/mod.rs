@@ -16,7 +16,7 @@
 //! - [`mailbox`]: a small per-thread set of tested triangles, so a triangle in several cells is
 //!   tested once per ray;
 //! - `scratch`: [`GridScratch`], a thread's mailbox and the order a batch's rays are walked
-//!   in (Morton order of their origins: `crate::batch::origin_order`);
+//!   in (Morton order of their origins: `crate::traverse::origin_order`);
 //! - `uniform`: [`UniformGrid`], the dense grid;
 //! - `table`: the hash table of non-empty cells (multiplicative hash, linear probing);
 //! - `hash`: [`SpatialHash`], the sparse grid.

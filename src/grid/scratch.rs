@@ -1,7 +1,7 @@
 //! The per-thread memory of a grid walk.
 
 use super::mailbox::Mailbox;
-use crate::batch::origin_order::{OriginOrder, WithOriginOrder};
+use crate::traverse::origin_order::{OriginOrder, WithOriginOrder};
 
 /// What a thread keeps between grid queries (the `Accel::Scratch` of both grids): the mailbox
 /// of the current ray's tested triangles, and the order a batch's rays are walked in.

@@ -15,7 +15,7 @@ use super::mailbox::{Mailbox, SHARED};
 use super::scratch::GridScratch;
 use super::sizing::{GridOptions, cap, cell_shape, resolution};
 use super::walk::{GridPlanes, bounds, walk};
-use crate::batch::origin_order;
+use crate::traverse::origin_order;
 
 /// The one-ray walk tests a stored cell this many stored cells after meeting it, and
 /// prefetches its cull box when it meets it: a short ray on the 1M-triangle terrain meets
@@ -208,7 +208,7 @@ impl Accel for UniformGrid {
         tmax
     }
 
-    /// One ray at a time, in Morton order of their origins (`crate::batch::origin_order`).
+    /// One ray at a time, in Morton order of their origins (`crate::traverse::origin_order`).
     fn trace_stream<K: TriangleTest, V: Visitor>(
         &self,
         stream: &mut RayStream<'_>,

@@ -19,7 +19,7 @@ pub use node::MAX_INDEX;
 pub use traverse::KdScratch;
 
 use crate::accel::{Accel, Footprint, RayStream};
-use crate::batch::origin_order;
+use crate::traverse::origin_order;
 use crate::bvh::BuildError;
 use crate::geom::{Aabb, PreparedRay, TriangleTest};
 use crate::grid::mailbox::SHARED;
@@ -122,7 +122,7 @@ impl Accel for KdTree {
         traverse::trace::<K, V>(self, ray, id, scratch, visitor)
     }
 
-    /// One ray at a time, in Morton order of their origins (`crate::batch::origin_order`).
+    /// One ray at a time, in Morton order of their origins (`crate::traverse::origin_order`).
     fn trace_stream<K: TriangleTest, V: Visitor>(
         &self,
         stream: &mut RayStream<'_>,

@@ -18,7 +18,7 @@
 //! (a zero direction component, `0 * inf = NaN` in the slab test) grazes both children and
 //! enters both; a triangle in the plane is in both.
 
-use crate::batch::origin_order::{OriginOrder, WithOriginOrder};
+use crate::traverse::origin_order::{OriginOrder, WithOriginOrder};
 use crate::geom::aabb::EXIT_SCALE;
 use crate::geom::{Aabb, PreparedRay, TriangleTest};
 use crate::grid::Mailbox;
@@ -30,7 +30,7 @@ use super::node::Decoded;
 
 /// Per-thread memory of the kd-tree walk: the stack of pending far children, the mailbox (a
 /// triangle in several leaves is tested once per ray) and the order a batch's rays are walked
-/// in (Morton order of their origins: `crate::batch::origin_order`).
+/// in (Morton order of their origins: `crate::traverse::origin_order`).
 #[derive(Debug, Default)]
 pub struct KdScratch {
     stack: Vec<(u32, Span)>,

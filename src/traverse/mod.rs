@@ -1,4 +1,4 @@
-//! The two traversals of a binary BVH, written once against [`Bvh`], which make every `Bvh` an
+//! The engines that walk a binary BVH, written once against [`Bvh`], which make every `Bvh` an
 //! [`Accel`]:
 //!
 //! - `single`: one ray at a time, depth first, nearer child first (the reference);
@@ -8,10 +8,14 @@
 //! - `stack`: the one-ray loop's stack, the thread's `Vec` or a fixed array on the call stack
 //!   (with the traversals' other `unsafe`, one read of a slot it wrote);
 //! - `stream`: a stream of rays going down the tree once, partitioned at each node (seed 001).
+//!
+//! Beside them, `origin_order`: the stream engine of the structures that walk each ray alone
+//! (grids, kd-tree), a stream's rays taken one at a time in Morton order of their origins.
 
 #[allow(unsafe_code)]
 pub(crate) mod avx2;
 pub(crate) mod dispatch;
+pub(crate) mod origin_order;
 #[cfg(target_arch = "x86_64")]
 pub(crate) mod packet;
 pub(crate) mod single;

@@ -112,7 +112,7 @@ fn bunny_1m_incoherent_closest() {
 }
 
 /// The grids and the kd-tree walk a batch in Morton order of the rays' origins once structure
-/// and mesh pass 16 MiB (`batch::origin_order`; below it, in the stream's order): over an
+/// and mesh pass 16 MiB (`traverse::origin_order`; below it, in the stream's order): over an
 /// icosphere of 1.3M triangles (24 MB of mesh), closest, any and every hit of 20,000 rays
 /// (origins inside and around the sphere), batched with two option combinations (one
 /// sequential with small chunks, one on a pool) against the single-ray path, bit for bit.
