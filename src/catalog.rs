@@ -12,8 +12,6 @@
 use std::any::Any;
 use std::sync::Arc;
 
-use glam::Vec3;
-
 use crate::accel::{Accel, Footprint, RayStream, StreamLayout};
 use crate::batch::BatchOptions;
 use crate::bvh::{AabbTree, BuildError, BuildOptions, QuantizedAabbTree};
@@ -238,21 +236,18 @@ impl AnyAccel {
         self.bounds
     }
 
-    /// Moves the mesh's vertices to `vertices` (same count, same triangles) and refits the
-    /// tree's boxes bottom-up, without a rebuild. Only the binary AABB tree
-    /// ([`AccelKind::Aabb`]) supports it (see `scene::refit`); on any error the tree is left
-    /// as it was.
-    pub fn refit(&mut self, vertices: Vec<Vec3>) -> Result<(), crate::scene::SceneError> {
+    /// The binary AABB tree behind this structure, if it is one ([`AccelKind::Aabb`]): the
+    /// one kind a scene can refit after its mesh deforms (then [`AnyAccel::set_mesh_bounds`]).
+    pub(crate) fn aabb_mut(&mut self) -> Option<&mut AabbTree> {
         match &mut self.tree {
-            Tree::Aabb(tree) => {
-                crate::scene::refit::refit(tree, vertices)?;
-                self.bounds = tree.mesh().bounds();
-                Ok(())
-            }
-            _ => Err(crate::scene::SceneError::NotRefittable {
-                kind: self.kind().name(),
-            }),
+            Tree::Aabb(tree) => Some(tree),
+            _ => None,
         }
+    }
+
+    /// Sets the mesh's box, after the tree's mesh moved.
+    pub(crate) fn set_mesh_bounds(&mut self, bounds: Aabb) {
+        self.bounds = bounds;
     }
 }
 

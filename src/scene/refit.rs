@@ -17,12 +17,27 @@ use glam::Vec3;
 
 use crate::bvh::nodes::NodeFormat;
 use crate::bvh::{AabbTree, Bvh};
+use crate::catalog::AnyAccel;
 use crate::geom::Aabb;
 use crate::mesh::Mesh;
 use crate::scene::error::SceneError;
 
+/// Moves `accel`'s mesh to `vertices` and refits its boxes and the mesh's box; on error
+/// nothing changes. Only the binary AABB tree ([`crate::AccelKind::Aabb`]) can be refitted.
+pub(crate) fn refit_mesh(accel: &mut AnyAccel, vertices: Vec<Vec3>) -> Result<(), SceneError> {
+    let Some(tree) = accel.aabb_mut() else {
+        return Err(SceneError::NotRefittable {
+            kind: accel.kind().name(),
+        });
+    };
+    refit(tree, vertices)?;
+    let bounds = tree.mesh().bounds();
+    accel.set_mesh_bounds(bounds);
+    Ok(())
+}
+
 /// Moves `tree`'s mesh to `vertices` and refits its boxes; on error nothing changes.
-pub(crate) fn refit(tree: &mut AabbTree, vertices: Vec<Vec3>) -> Result<(), SceneError> {
+fn refit(tree: &mut AabbTree, vertices: Vec<Vec3>) -> Result<(), SceneError> {
     let old = tree.mesh();
     if vertices.len() != old.vertices().len() {
         return Err(SceneError::VertexCountChanged {

@@ -15,6 +15,7 @@ use crate::hit::Hit;
 use crate::mesh::MAX_TRIANGLES;
 use crate::scene::error::SceneError;
 use crate::scene::instance::{Instance, InstanceDesc, world_box};
+use crate::scene::refit::refit_mesh;
 use crate::scene::rigid::Rigid;
 use crate::scene::top::TopTree;
 
@@ -213,7 +214,7 @@ impl Scene {
             .meshes
             .get_mut(mesh)
             .ok_or(SceneError::NoSuchMesh { mesh, meshes })?;
-        tree.refit(vertices)?;
+        refit_mesh(tree, vertices)?;
         self.mesh_moved(mesh);
         Ok(())
     }
