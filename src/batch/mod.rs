@@ -10,6 +10,7 @@
 //!   structures that partition rays (binary trees, scenes).
 //! - `rays`: the same rays as an array of prepared records, for structures that walk rays by
 //!   index (the 4-wide tree, grids, the kd-tree).
+//! - `slots`: where each of a chunk's rays goes in its group, and back.
 //! - `prepare_avx2`: the grouping's validity checks and prepared records eight rays at a time.
 //! - [`partition`]: one box against many lanes with move-to-front (AVX-512, AVX2, portable).
 //! - `scratch`: the per-thread arrays, kept in the thread's workspace.
@@ -28,6 +29,7 @@ pub mod partition;
 pub(crate) mod prepare_avx2;
 pub(crate) mod rays;
 pub(crate) mod scratch;
+pub(crate) mod slots;
 
 pub use options::{BatchOptions, BatchOrdering, Interleave};
 pub use partition::PartitionKernel;

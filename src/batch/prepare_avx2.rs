@@ -17,8 +17,8 @@ use std::arch::x86_64::{
     _mm256_store_ps, _mm256_storeu_si256,
 };
 
-use super::group::Placer;
 use super::rays::PreparedRays;
+use super::slots::Placer;
 use crate::geom::box_octet::slab_range;
 use crate::geom::{Aabb, PreparedRay, Ray};
 use crate::x86::Avx2;

@@ -1,10 +1,10 @@
 //! The batched engine's per-thread arrays, reused from call to call (they live in the thread's
 //! [`crate::workspace::Workspace`]).
 
-use super::group::Slots;
 use super::lanes::Lanes;
 use super::mixing::MixingJudge;
 use super::rays::PreparedRays;
+use super::slots::Slots;
 use crate::hit::Hit;
 
 /// The batched engine's working arrays.

@@ -19,13 +19,13 @@ pub use node::MAX_INDEX;
 pub use traverse::KdScratch;
 
 use crate::accel::{Accel, Footprint, RayStream};
-use crate::traverse::origin_order;
 use crate::bvh::BuildError;
 use crate::geom::{Aabb, PreparedRay, TriangleTest};
 use crate::grid::mailbox::SHARED;
 use crate::grid::uniform::live_triangles;
 use crate::hit::Visitor;
 use crate::mesh::Mesh;
+use crate::traverse::origin_order;
 use node::KdNode;
 
 /// A kd-tree over a mesh (see the module docs).

@@ -18,12 +18,12 @@
 //! (a zero direction component, `0 * inf = NaN` in the slab test) grazes both children and
 //! enters both; a triangle in the plane is in both.
 
-use crate::traverse::origin_order::{OriginOrder, WithOriginOrder};
 use crate::geom::aabb::EXIT_SCALE;
 use crate::geom::{Aabb, PreparedRay, TriangleTest};
 use crate::grid::Mailbox;
 use crate::grid::uniform::test_cell;
 use crate::hit::{RAY_DONE, Visitor};
+use crate::traverse::origin_order::{OriginOrder, WithOriginOrder};
 
 use super::KdTree;
 use super::node::Decoded;

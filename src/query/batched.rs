@@ -18,11 +18,12 @@
 
 use crate::accel::{Accel, RayStream, Storage, StreamLayout};
 use crate::batch::chunks::for_each_chunk;
-use crate::batch::group::{self, Grouping, Groups, Slots};
+use crate::batch::group::{self, Grouping, Groups};
 use crate::batch::mixing::JudgedChunk;
 use crate::batch::options::BatchOptions;
 use crate::batch::partition::Partitioner;
 use crate::batch::scratch::BatchScratch;
+use crate::batch::slots::Slots;
 use crate::geom::{Aabb, Kernel, Ray, Watertight};
 use crate::hit::{Hit, Sink, Visitor};
 use crate::query::single;
