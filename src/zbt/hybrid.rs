@@ -17,7 +17,7 @@ use glam::Vec3;
 use super::build::RangeBuilder;
 use super::cache::BoxCache;
 use super::packed::PackedMesh;
-use super::tree::ZbtStats;
+use super::stats::ZbtStats;
 use super::{MAX_TRIANGLES, Rejected, ZbtError, ZbtOptions, check_common};
 use crate::accel::Footprint;
 use crate::bvh::build::{Extent, Prim, prims_of, split_in_two};

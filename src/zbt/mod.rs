@@ -16,7 +16,8 @@
 //! - `hybrid`: [`PackedTree`], the one implementation of both trees: [`HybridTree`], an AABB
 //!   tree whose leaves are zero-byte trees over chunks of triangles (which lifts the triangle
 //!   limit), and [`ZeroByteTree`], the same without the top level;
-//! - `tree`: the zero-byte tree's own build and limit, and the statistics both share.
+//! - `stats`: [`ZbtStats`], the shape of either tree's zero-byte parts;
+//! - `tree`: the zero-byte tree's own build and limit.
 //!
 //! **Ids.** Both trees reorder the triangles and hand back the permutation (`new id -> original
 //! id`) without keeping it (it would cost 4 bytes per triangle): hits report the tree's ids.
@@ -32,12 +33,14 @@ mod cover;
 mod hybrid;
 mod layout;
 mod packed;
+mod stats;
 mod tree;
 
 pub use cache::BYTES as BOX_CACHE_BYTES;
 pub use hybrid::{HybridOptions, HybridTree, PackedTree};
 pub use layout::{MAX_TRIANGLES, MAX_VERTICES};
-pub use tree::{ZbtStats, ZeroByteTree};
+pub use stats::ZbtStats;
+pub use tree::ZeroByteTree;
 
 use crate::bvh::ChildOrdering;
 use crate::mesh::Mesh;
