@@ -3,7 +3,7 @@
 //! With AVX2 (and the VEX encoding it brings) the box test and the triangle kernels need fewer
 //! register copies; `wide::tests` compares the two copies.
 
-use super::node::BoxSimd;
+use super::ray::BoxSimd;
 use super::stack::Stack;
 use super::{NodeKind, WideBvh, WideScratch};
 use super::{interleaved, single, stream};

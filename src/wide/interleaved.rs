@@ -13,7 +13,7 @@
 //! nodes in the same order, with the same kernels and the same range ends, as it would alone:
 //! answers are those of the one-ray loop, bit for bit. Prefetching never changes a value.
 
-use super::node::{BoxSimd, WideRay};
+use super::ray::{BoxSimd, WideRay};
 use super::single::step;
 use super::stack::Stack;
 use super::{LEAF_READY, NodeKind, WideBvh};

@@ -2,25 +2,34 @@
 //! eight (`WideTree8`, the default) children's boxes, tested against a ray in one SIMD pass:
 //! fewer, slightly longer node visits than the binary tree's, and fewer stack entries.
 //!
-//! - [`node`]: the 4-wide node layout and its 4-lane box test (identical, lane by lane, to the
-//!   scalar slab test).
-//! - [`node8`]: the 8-wide node layout and its 8-lane box test.
+//! Node layouts, each with its box test and its [`NodeKind`] implementation:
+//! - [`node4`]: the 4-wide node layout.
+//! - [`node8`]: the 8-wide node layout.
 //! - [`node4q`], [`node8q`]: the 4- and 8-wide nodes with 8-bit child boxes on a per-node
 //!   grid (`quantize`), decoded before the same box tests.
+//!
+//! What the layouts share:
 //! - `kind`: [`NodeKind`], what the walks need of a node layout, so that one tree type, one
 //!   collapse, one one-ray loop and one side-by-side engine serve every layout.
-//! - `collapse`: binary tree to wide tree.
-//! - `dispatch`: the loops' baseline and AVX2 copies, picked at run time.
+//! - `ray`: what the box tests take: a ray's constants and a node's planes as it meets them.
+//! - `order`: a node's child words and per-octant child orders, built from its children.
+//! - `slabs`: the portable box tests (4 lanes, identical lane by lane to the scalar slab test;
+//!   8 lanes as two halves).
+//! - `rows`: the 8-wide node's boxes as rows aligned for AVX2.
 //! - `simd`: the box tests with SSE (4 lanes) and AVX2 (8 lanes) on x86-64 (their portable
-//!   twins are in [`node`], [`node8`] and [`node8q`]), and the stream split's AVX2 eight-ray box tests and
+//!   twins are in `slabs` and [`node8q`]), and the stream split's AVX2 eight-ray box tests and
 //!   list writes (twins in `stream`).
+//! - `stack`: the one-ray loop's pending children, pushed without branches.
+//!
+//! Building and walking:
+//! - `collapse`: binary tree to wide tree.
 //! - `leaves`: a leaf word's triangles, from slot ranges over the binary tree's leaves or from
 //!   `blocks`, each leaf's ids and distinct corners in one run of words (one read a leaf).
 //! - `single`: the one-ray loop, children in the node's precomputed order for the ray's octant.
-//! - `stack`: the one-ray loop's pending children, pushed without branches.
 //! - `stream`: a stream of rays going down either tree once, split into index lists per
 //!   child.
 //! - `interleaved`: several rays walked side by side, one loop turn each in turn.
+//! - `dispatch`: the loops' baseline and AVX2 copies, picked at run time.
 //!
 //! It implements [`Accel`] directly (its walk is not the binary one). Triangles are the binary
 //! tree's leaves, in the same order, tested with the same kernels, so answers are those of
@@ -32,15 +41,19 @@ pub(crate) mod dispatch;
 pub(crate) mod interleaved;
 pub(crate) mod kind;
 pub(crate) mod leaves;
-pub mod node;
+pub mod node4;
 pub mod node4q;
 pub mod node8;
 pub mod node8q;
+pub(crate) mod order;
 pub(crate) mod quantize;
+pub(crate) mod ray;
+pub(crate) mod rows;
 #[cfg(target_arch = "x86_64")]
 #[allow(unsafe_code)]
 pub(crate) mod simd;
 pub(crate) mod single;
+pub(crate) mod slabs;
 // Unsafe reads (`Stack::pop`, `Stack::peek`) of slots the stack wrote.
 #[allow(unsafe_code)]
 pub(crate) mod stack;
@@ -63,7 +76,7 @@ use crate::mesh::Mesh;
 use blocks::LeafBlocks;
 pub use kind::NodeKind;
 use leaves::WideLeaves;
-use node::WideNode;
+use node4::WideNode;
 use node4q::QuantizedWideNode;
 use node8::WideNode8;
 use node8q::QuantizedWideNode8;

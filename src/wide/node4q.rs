@@ -15,17 +15,18 @@
 //! the full-precision tree) are in `wide::quantize`.
 //!
 //! The box test decodes the six planes and runs the 4-wide node's slab test on them
-//! (`WideRay::hits_planes`), lane by lane the scalar slab test on the decoded box; the
+//! (`slabs::hits_planes`), lane by lane the scalar slab test on the decoded box; the
 //! stream engine decodes a node once for all the rays that reach it.
 
 use glam::Vec4;
 
+use super::kind::NodeKind;
 use super::kind::layout::Layout;
-use super::kind::{child_words, octant_orders};
-use super::node::{Planes, WideRay};
+use super::order::{child_words, octant_orders};
 use super::quantize::Grid;
+use super::ray::{Planes, StreamPlanes, WideRay};
+use super::slabs::hits_planes;
 use super::stack::Stack;
-use super::stream::StreamPlanes;
 use crate::bvh::LeafCopy;
 use crate::geom::Aabb;
 use crate::prefetch::prefetch;
@@ -81,7 +82,7 @@ impl QuantizedWideNode {
         ]
     }
 
-    /// The planes as rays of octant `octant` meet them (see [`super::node::WideNode::planes`]).
+    /// The planes as rays of octant `octant` meet them (see [`super::node4::WideNode::planes`]).
     #[inline(always)]
     fn planes(&self, octant: u32) -> Planes {
         let rows = self.decoded();
@@ -95,7 +96,7 @@ impl QuantizedWideNode {
     /// Which used slots' boxes the ray enters within `[tmin, tmax]`, and the entry distances.
     #[inline(always)]
     pub(crate) fn hits(&self, ray: &WideRay, tmax: f32) -> (u32, Vec4) {
-        let (mask, entries) = ray.hits_planes(&self.planes(ray.octant), tmax);
+        let (mask, entries) = hits_planes(ray, &self.planes(ray.octant), tmax);
         (mask & ((1 << self.used) - 1), entries)
     }
 
@@ -174,3 +175,5 @@ impl Layout for QuantizedWideNode {
         u32::from(self.order(octant))
     }
 }
+
+impl NodeKind for QuantizedWideNode {}

@@ -9,16 +9,18 @@
 //! ```
 //! 256 bytes, four cache lines, aligned to 64. Unused slots hold empty boxes, which no ray
 //! enters. Each lane does the scalar slab test's arithmetic ([`crate::geom::aabb::box_entry`])
-//! exactly as the 4-wide node's lanes do ([`super::node`] says how); the AVX2 version and its
+//! exactly as the 4-wide node's lanes do ([`super::slabs`] says how); the AVX2 version and its
 //! portable twin (the 4-wide test on each half) are compared by this module's tests.
 
-use glam::{Vec3, Vec4};
+use glam::Vec3;
 
+use super::kind::NodeKind;
 use super::kind::layout::Layout;
-use super::kind::octant_orders;
-use super::node::{Planes, WideRay};
+use super::order::octant_orders;
+use super::ray::{StreamPlanes, WideRay};
+use super::rows::PlaneRows8;
+use super::slabs::slabs_by_halves;
 use super::stack::Stack;
-use super::stream::StreamPlanes;
 use crate::bvh::LeafCopy;
 use crate::geom::Aabb;
 use crate::prefetch::prefetch;
@@ -31,10 +33,11 @@ pub const WIDTH: usize = 8;
 #[repr(C, align(64))]
 pub struct WideNode8 {
     /// Child boxes by coordinate: min x, min y, min z, max x, max y, max z.
-    pub(crate) bounds: [[f32; WIDTH]; 6],
+    pub(crate) bounds: PlaneRows8,
     /// Child words.
     pub(crate) child: [u32; WIDTH],
-    /// Per octant, every slot, the used ones nearest first (3 bits each, see `kind::octant_orders`).
+    /// Per octant, every slot, the used ones nearest first (3 bits each, see
+    /// `order::octant_orders`).
     order: [u32; 8],
 }
 
@@ -47,7 +50,7 @@ impl WideNode8 {
     pub(crate) fn empty() -> Self {
         let (lo, hi) = ([f32::INFINITY; WIDTH], [f32::NEG_INFINITY; WIDTH]);
         Self {
-            bounds: [lo, lo, lo, hi, hi, hi],
+            bounds: PlaneRows8([lo, lo, lo, hi, hi, hi]),
             child: [0; WIDTH],
             order: [0; 8],
         }
@@ -94,7 +97,7 @@ impl WideNode8 {
     pub(crate) fn hits(&self, ray: &WideRay, tmax: f32) -> (u32, [f32; WIDTH]) {
         #[cfg(target_arch = "x86_64")]
         if let Some(avx2) = ray.simd.avx2() {
-            return super::simd::slabs8(avx2, ray, self, tmax);
+            return super::simd::slabs8(avx2, ray, &self.bounds, tmax);
         }
         self.hits_by_halves(ray, tmax)
     }
@@ -104,35 +107,6 @@ impl WideNode8 {
     pub(crate) fn hits_by_halves(&self, ray: &WideRay, tmax: f32) -> (u32, [f32; WIDTH]) {
         slabs_by_halves(&self.bounds, ray, tmax)
     }
-}
-
-/// The 8-wide box test on `bounds` (rows as [`WideNode8`] holds them) as two 4-wide box
-/// tests: the portable twin of the AVX2 tests (`simd::slabs8`, `simd::slabs8q`).
-#[inline(always)]
-pub(crate) fn slabs_by_halves(
-    bounds: &[[f32; WIDTH]; 6],
-    ray: &WideRay,
-    tmax: f32,
-) -> (u32, [f32; WIDTH]) {
-    let mut mask = 0;
-    let mut entries = [0.0; WIDTH];
-    for half in 0..2 {
-        let (mut near, mut far) = ([Vec4::ZERO; 3], [Vec4::ZERO; 3]);
-        for axis in 0..3 {
-            let negative = (ray.octant >> axis) & 1 != 0;
-            let (near_row, far_row) = if negative {
-                (axis + 3, axis)
-            } else {
-                (axis, axis + 3)
-            };
-            near[axis] = Vec4::from_slice(&bounds[near_row][4 * half..]);
-            far[axis] = Vec4::from_slice(&bounds[far_row][4 * half..]);
-        }
-        let (m, e) = ray.hits_planes(&Planes { near, far }, tmax);
-        mask |= m << (4 * half);
-        e.write_to_slice(&mut entries[4 * half..]);
-    }
-    (mask, entries)
 }
 
 #[allow(private_interfaces)]
@@ -198,12 +172,14 @@ impl Layout for WideNode8 {
     }
 }
 
+impl NodeKind for WideNode8 {}
+
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::test_support::TestRng;
-    use crate::wide::node::BoxSimd;
-    use crate::wide::node::tests::box_test_case;
+    use crate::wide::node4::tests::box_test_case;
+    use crate::wide::ray::BoxSimd;
 
     /// The order words list the used slots nearest first along each octant's diagonal, then
     /// the unused ones, each slot once.

@@ -21,13 +21,13 @@
 //! Half the node bytes of [`super::node8`] for the same visits, plus a few more boxes entered
 //! (each decoded box is up to a 255th of the node's extent larger than the exact one).
 
+use super::kind::NodeKind;
 use super::kind::layout::Layout;
-use super::kind::{child_words, octant_orders};
-use super::node::WideRay;
-use super::node8::slabs_by_halves;
+use super::order::{child_words, octant_orders};
 use super::quantize::{Grid, plane};
+use super::ray::{StreamPlanes, WideRay};
+use super::slabs::slabs_by_halves;
 use super::stack::Stack;
-use super::stream::StreamPlanes;
 use crate::bvh::LeafCopy;
 use crate::geom::Aabb;
 use crate::prefetch::prefetch;
@@ -90,7 +90,8 @@ impl QuantizedWideNode8 {
         let used = (1u32 << self.used) - 1;
         #[cfg(target_arch = "x86_64")]
         if let Some(avx2) = ray.simd.avx2() {
-            let (mask, entries) = super::simd::slabs8q(avx2, ray, self, tmax);
+            let node = (self.grid(), &self.low, &self.high);
+            let (mask, entries) = super::simd::slabs8q(avx2, ray, node, tmax);
             return (mask & used, entries);
         }
         let (mask, entries) = self.hits_portable(ray, tmax);
@@ -182,3 +183,5 @@ impl Layout for QuantizedWideNode8 {
         self.order(octant)
     }
 }
+
+impl NodeKind for QuantizedWideNode8 {}

@@ -150,10 +150,10 @@ mod tests {
     use crate::geom::PreparedRay;
     use crate::test_support::TestRng;
     use crate::wide::kind::layout::Layout;
-    use crate::wide::node::tests::box_test_case;
-    use crate::wide::node::{BoxSimd, WideRay};
+    use crate::wide::node4::tests::box_test_case;
     use crate::wide::node4q::QuantizedWideNode;
     use crate::wide::node8q::QuantizedWideNode8;
+    use crate::wide::ray::{BoxSimd, WideRay};
 
     /// What these tests need of a quantized node beside its layout.
     trait Quantized: Layout {
@@ -316,7 +316,8 @@ mod tests {
                 continue;
             };
             let wide_ray = WideRay::new(&ray, BoxSimd::detect(true));
-            let (mask, entries) = slabs8q(avx2, &wide_ray, &node, tmax);
+            let quantized = (node.grid(), &node.low, &node.high);
+            let (mask, entries) = slabs8q(avx2, &wide_ray, quantized, tmax);
             let (twin_mask, twin_entries) = node.hits_portable(&wide_ray, tmax);
             assert_eq!(mask, twin_mask, "{children:?}, {ray:?}");
             hit_lanes += mask.count_ones();

@@ -2,11 +2,12 @@
 //! compare it with:
 //!
 //! - [`slabs`]: one ray against a node's four boxes with SSE, twin of
-//!   [`super::node::WideRay::slabs_portable`] (compared by `node::tests`);
+//!   [`super::slabs::slabs_portable`] (compared by `node4::tests`);
 //! - [`slabs8`]: one ray against an 8-wide node's eight boxes with AVX2, twin of
-//!   [`WideNode8::hits_by_halves`] (compared by `node8::tests`);
+//!   [`super::slabs::slabs_by_halves`] (compared by `node8::tests`);
 //! - [`slabs8q`]: the same against a quantized 8-wide node, decoding its planes first, twin of
-//!   [`QuantizedWideNode8::hits_portable`] (compared by `quantize::tests`);
+//!   [`QuantizedWideNode8::hits_portable`](super::node8q::QuantizedWideNode8::hits_portable)
+//!   (compared by `quantize::tests`);
 //! - [`stream_masks`]: eight rays at a time (of one octant, or of mixed octants) against each
 //!   box with AVX2, for the stream split, twin of its one-ray loop (compared by
 //!   `stream::tests`).
@@ -33,16 +34,15 @@ use std::arch::x86_64::{
 
 use glam::Vec4;
 
-use super::node::{Planes, WideRay};
-use super::node8::WideNode8;
-use super::node8q::QuantizedWideNode8;
-use super::stream::StreamPlanes;
+use super::quantize::Grid;
+use super::ray::{Planes, StreamPlanes, WideRay};
+use super::rows::PlaneRows8;
 use crate::geom::PreparedRay;
 use crate::geom::aabb::EXIT_SCALE;
 pub(crate) use crate::x86::Avx2;
 use crate::x86::transpose;
 
-/// See [`WideRay::hits_planes`].
+/// See [`super::slabs::hits_planes`].
 #[inline(always)]
 pub(crate) fn slabs(ray: &WideRay, planes: &Planes, tmax: f32) -> (u32, Vec4) {
     // SAFETY: the intrinsics need SSE and SSE2, which every x86-64 CPU has (they are part of
@@ -66,13 +66,13 @@ pub(crate) fn slabs(ray: &WideRay, planes: &Planes, tmax: f32) -> (u32, Vec4) {
     }
 }
 
-/// One ray against an 8-wide node's eight boxes with AVX2, twin of
-/// [`WideNode8::hits_by_halves`] (compared by `node8::tests`): lane by lane the arithmetic of
-/// [`slabs`], with 8 lanes.
+/// One ray against an 8-wide node's eight boxes (`rows`) with AVX2, twin of
+/// [`super::slabs::slabs_by_halves`] (compared by `node8::tests`): lane by lane the arithmetic
+/// of [`slabs`], with 8 lanes.
 #[inline(always)]
-pub(crate) fn slabs8(_: Avx2, ray: &WideRay, node: &WideNode8, tmax: f32) -> (u32, [f32; 8]) {
+pub(crate) fn slabs8(_: Avx2, ray: &WideRay, rows: &PlaneRows8, tmax: f32) -> (u32, [f32; 8]) {
     // SAFETY: an `Avx2` exists only if the CPU has AVX2.
-    unsafe { slabs8_avx2(ray, node, tmax) }
+    unsafe { slabs8_avx2(ray, rows, tmax) }
 }
 
 /// See [`slabs8`].
@@ -81,23 +81,25 @@ pub(crate) fn slabs8(_: Avx2, ray: &WideRay, node: &WideNode8, tmax: f32) -> (u3
 /// The CPU must support AVX2.
 #[inline]
 #[target_feature(enable = "avx2")]
-unsafe fn slabs8_avx2(ray: &WideRay, node: &WideNode8, tmax: f32) -> (u32, [f32; 8]) {
-    // Each row of `bounds` is 32 bytes at a multiple of 32 from the node's 64-byte alignment.
+unsafe fn slabs8_avx2(ray: &WideRay, rows: &PlaneRows8, tmax: f32) -> (u32, [f32; 8]) {
+    // Each row is 32 bytes at a multiple of 32 from the rows' 32-byte alignment.
     // SAFETY: the row is eight initialised `f32`s, aligned to 32 bytes.
-    let row = |row: usize| unsafe { _mm256_load_ps(node.bounds[row].as_ptr()) };
+    let row = |row: usize| unsafe { _mm256_load_ps(rows[row].as_ptr()) };
     slab_rows8(ray, row, tmax)
 }
 
-/// One ray against a quantized 8-wide node's eight boxes with AVX2, twin of
-/// [`QuantizedWideNode8::hits_portable`] (compared by `quantize::tests`): each row's eight steps
-/// widened to `f32`, times the axis step (exact: fewer than 256 steps of a power of two), plus
-/// the origin, the decode's own arithmetic (`quantize::plane`); then [`slabs8`]'s test on them.
-/// All eight lanes, used or not (the caller masks).
+/// One ray against a quantized 8-wide node's eight boxes (its grid and the steps of its boxes'
+/// minima and maxima, per axis and slot) with AVX2, twin of
+/// [`QuantizedWideNode8::hits_portable`](super::node8q::QuantizedWideNode8::hits_portable)
+/// (compared by `quantize::tests`): each row's eight steps widened to `f32`, times the axis
+/// step (exact: fewer than 256 steps of a power of two), plus the origin, the decode's own
+/// arithmetic (`quantize::plane`); then [`slabs8`]'s test on them. All eight lanes, used or not
+/// (the caller masks).
 #[inline(always)]
 pub(crate) fn slabs8q(
     _: Avx2,
     ray: &WideRay,
-    node: &QuantizedWideNode8,
+    node: (Grid, &[[u8; 8]; 3], &[[u8; 8]; 3]),
     tmax: f32,
 ) -> (u32, [f32; 8]) {
     // SAFETY: an `Avx2` exists only if the CPU has AVX2.
@@ -110,15 +112,18 @@ pub(crate) fn slabs8q(
 /// The CPU must support AVX2.
 #[inline]
 #[target_feature(enable = "avx2")]
-unsafe fn slabs8q_avx2(ray: &WideRay, node: &QuantizedWideNode8, tmax: f32) -> (u32, [f32; 8]) {
-    let grid = node.grid();
+unsafe fn slabs8q_avx2(
+    ray: &WideRay,
+    (grid, low, high): (Grid, &[[u8; 8]; 3], &[[u8; 8]; 3]),
+    tmax: f32,
+) -> (u32, [f32; 8]) {
     let (origin, steps) = (grid.origin, grid.steps());
     // Row `row` of the decoded planes (min x, y, z, max x, y, z), decoded where it is asked for.
     let row = |row: usize| {
         let (bytes, axis) = if row < 3 {
-            (&node.low[row], row)
+            (&low[row], row)
         } else {
-            (&node.high[row - 3], row - 3)
+            (&high[row - 3], row - 3)
         };
         // SAFETY: `bytes` is eight readable bytes; the load has no alignment requirement.
         let packed = unsafe { _mm_loadl_epi64(bytes.as_ptr().cast::<__m128i>()) };
@@ -167,10 +172,10 @@ fn slab_rows8(ray: &WideRay, row: impl Fn(usize) -> __m256, tmax: f32) -> (u32, 
 /// negative (its sign bit: the ray's octant bit, `-0.0` included), picking exactly the planes
 /// the ray's own octant would.
 ///
-/// Lane `j` computes exactly what the one-ray box test ([`WideRay::hits_planes`], or the 8-wide
-/// node's) computes for ray `j`, one child at a time: the same subtractions and products in the
-/// same order, the same NaN-keeping `max`/`min` fold and the same final compare. Panics if an
-/// index is out of range.
+/// Lane `j` computes exactly what the one-ray box test ([`super::slabs::hits_planes`], or the
+/// 8-wide node's) computes for ray `j`, one child at a time: the same subtractions and products
+/// in the same order, the same NaN-keeping `max`/`min` fold and the same final compare. Panics
+/// if an index is out of range.
 #[inline(always)]
 pub(crate) fn stream_masks(
     _: Avx2,

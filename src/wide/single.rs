@@ -11,7 +11,7 @@
 //! Entry distances are kept on the stack: a pop whose entry lies behind the best hit is dropped
 //! without reading anything (`<=`, for the tie rule of [`crate::hit`]).
 
-use super::node::{BoxSimd, WideRay};
+use super::ray::{BoxSimd, WideRay};
 use super::stack::Stack;
 use super::{NodeKind, WideBvh};
 use crate::bvh::nodes::leaf_word;

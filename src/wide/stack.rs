@@ -27,7 +27,7 @@
 
 use std::mem::MaybeUninit;
 
-use super::kind::order_slots;
+use super::order::order_slots;
 use crate::bvh::build::MAX_DEPTH;
 
 /// A pending child: its word and the distance at which the ray enters its box.
@@ -85,7 +85,7 @@ impl Stack {
 
     /// Pushes the children hit (bit `k` of `mask` for slot `k`, entering at `entries[k]`) in
     /// the node's order for the ray's octant (`order`: the slots nearest first, `log2(W)` bits
-    /// each, see [`super::kind::octant_orders`]), farthest first, so the nearest is on top.
+    /// each, see [`super::order::octant_orders`]), farthest first, so the nearest is on top.
     #[inline(always)]
     pub(crate) fn push_hits<const W: usize>(
         &mut self,

@@ -34,8 +34,8 @@
 //!
 //! [`BatchOptions::single_ray_below`]: crate::batch::BatchOptions::single_ray_below
 
-use super::kind::order_slots;
-use super::node::{BoxSimd, WideRay};
+use super::order::order_slots;
+use super::ray::{BoxSimd, MAX_WIDTH, WideRay};
 use super::stack::Stack;
 use super::{NodeKind, WideBvh, WideScratch};
 use crate::accel::{RayStream, StreamLayout};
@@ -72,44 +72,6 @@ fn single_ray_below<V: Visitor>(option: usize) -> usize {
         option.saturating_mul(2)
     } else {
         option
-    }
-}
-
-/// The most children a node has: the stream's per-child arrays are this long.
-const MAX_WIDTH: usize = 8;
-
-/// A node's child planes as a stream of rays of one direction octant meets them (see
-/// [`super::node::Planes`]), lane `k` for slot `k` of up to [`MAX_WIDTH`].
-/// (Read by the AVX2 split only, on x86-64.)
-#[derive(Clone, Copy, Debug)]
-#[cfg_attr(not(target_arch = "x86_64"), allow(dead_code))]
-pub(crate) struct StreamPlanes {
-    pub(crate) near: [[f32; MAX_WIDTH]; 3],
-    pub(crate) far: [[f32; MAX_WIDTH]; 3],
-}
-
-impl StreamPlanes {
-    /// The planes of an 8-wide node's rows (min x, y, z, max x, y, z; see
-    /// [`super::node8::WideNode8`]) as rays of direction octant `octant` meet them.
-    pub(crate) fn from_rows(rows: &[[f32; MAX_WIDTH]; 6], octant: u32) -> Self {
-        let negative = |axis: usize| ((octant >> axis) & 1) as usize;
-        StreamPlanes {
-            near: std::array::from_fn(|axis| rows[axis + 3 * negative(axis)]),
-            far: std::array::from_fn(|axis| rows[axis + 3 * (1 - negative(axis))]),
-        }
-    }
-
-    /// The planes of a 4-wide node ([`super::node::Planes`]), in lanes 0 to 3.
-    pub(crate) fn from_four(planes: &super::node::Planes) -> Self {
-        let lanes = |row: glam::Vec4| {
-            let mut lanes = [0.0; MAX_WIDTH];
-            lanes[..4].copy_from_slice(&row.to_array());
-            lanes
-        };
-        StreamPlanes {
-            near: planes.near.map(lanes),
-            far: planes.far.map(lanes),
-        }
     }
 }
 
@@ -601,7 +563,7 @@ const SPARE: usize = 8;
 mod tests {
     use glam::Vec3;
 
-    use super::super::node::WideNode;
+    use super::super::node4::WideNode;
     use super::super::node4q::QuantizedWideNode;
     use super::super::node8::WideNode8;
     use super::super::node8q::QuantizedWideNode8;

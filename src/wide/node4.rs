@@ -17,21 +17,19 @@
 //! diagonal. Both the stream engine and the one-ray loop read them to walk nearer children
 //! first (`single` says why the loop does not sort by entry distance).
 //!
-//! The lanes use glam's `Vec4` (SSE2 on x86-64, NEON on aarch64, scalar elsewhere) and do the
-//! scalar slab test's arithmetic lane by lane ([`crate::geom::aabb::box_entry`]): the same
-//! near/far plane choice by the direction's sign, the same products in the same order without
-//! FMA, the same exit scaling, and the same NaN-safe compare-and-select fold. A lane misses
-//! exactly when the scalar test misses and enters at the same distance (a test checks it).
+//! The box test is [`super::slabs::hits_planes`] on the planes of the ray's octant
+//! ([`WideNode::planes`]).
 
 use glam::{Vec3, Vec4};
 
+use super::kind::NodeKind;
 use super::kind::layout::Layout;
-use super::kind::octant_orders;
+use super::order::octant_orders;
+use super::ray::{Planes, StreamPlanes, WideRay};
+use super::slabs::hits_planes;
 use super::stack::Stack;
-use super::stream::StreamPlanes;
 use crate::bvh::LeafCopy;
-use crate::geom::aabb::EXIT_SCALE;
-use crate::geom::{Aabb, PreparedRay};
+use crate::geom::Aabb;
 use crate::prefetch::prefetch;
 
 /// Children per node.
@@ -95,17 +93,7 @@ impl WideNode {
             Vec3::new(b[3][slot], b[4][slot], b[5][slot]),
         )
     }
-}
 
-/// A node's six planes as one ray (or a stream of rays of one direction octant) meets them:
-/// per axis the near plane (the max plane when the direction is negative) and the far plane.
-#[derive(Clone, Copy, Debug)]
-pub(crate) struct Planes {
-    pub(crate) near: [Vec4; 3],
-    pub(crate) far: [Vec4; 3],
-}
-
-impl WideNode {
     /// The planes for rays whose direction has the sign bits of `octant` (bit `a` set: negative
     /// along axis `a`, as [`crate::geom::octant`] numbers them). A stream grouped by octant
     /// picks them once per node instead of once per ray.
@@ -119,115 +107,12 @@ impl WideNode {
             far: [far(0), far(1), far(2)],
         }
     }
-}
-
-/// What the 8-lane box test may use: the AVX2 token where the CPU has AVX2 and the loop's
-/// copy may use it (x86-64), nothing elsewhere. Found once per loop, not per ray.
-#[derive(Clone, Copy, Debug, Default)]
-pub(crate) struct BoxSimd {
-    #[cfg(target_arch = "x86_64")]
-    avx2: Option<crate::x86::Avx2>,
-}
-
-impl BoxSimd {
-    /// The portable box test: the loops' baseline copies, and the 4-wide tree's loops (whose
-    /// box test needs no token).
-    pub(crate) const PORTABLE: BoxSimd = BoxSimd {
-        #[cfg(target_arch = "x86_64")]
-        avx2: None,
-    };
-
-    /// AVX2 if `wanted` and the CPU has it, else [`BoxSimd::PORTABLE`].
-    pub(crate) fn detect(wanted: bool) -> Self {
-        #[cfg(target_arch = "x86_64")]
-        if wanted {
-            return BoxSimd {
-                avx2: crate::x86::Avx2::detect(),
-            };
-        }
-        let _ = wanted;
-        Self::PORTABLE
-    }
-
-    /// The AVX2 token, if the 8-lane test may use it.
-    #[cfg(target_arch = "x86_64")]
-    #[inline(always)]
-    pub(crate) fn avx2(self) -> Option<crate::x86::Avx2> {
-        self.avx2
-    }
-}
-
-/// Per-ray constants of the box tests (4 and 8 lanes), computed once per ray.
-#[derive(Clone, Copy, Debug)]
-pub(crate) struct WideRay {
-    pub(crate) origin: [Vec4; 3],
-    pub(crate) inv_dir: [Vec4; 3],
-    /// The ray's direction octant ([`crate::geom::octant`] of the sign bits of `inv_dir`,
-    /// which are the direction's): which planes of a node are near.
-    pub(crate) octant: u32,
-    pub(crate) tmin: Vec4,
-    /// What the 8-wide node's box test may use (read on x86-64 only: elsewhere there is
-    /// nothing to choose).
-    #[cfg_attr(not(target_arch = "x86_64"), allow(dead_code))]
-    pub(crate) simd: BoxSimd,
-}
-
-impl WideRay {
-    /// The constants of `ray`, for box tests that may use `simd`.
-    #[inline(always)]
-    pub(crate) fn new(ray: &PreparedRay, simd: BoxSimd) -> Self {
-        let (origin, inv_dir, tmin) = (ray.origin, ray.inv_dir, ray.tmin);
-        let splat = |v: Vec3| [Vec4::splat(v.x), Vec4::splat(v.y), Vec4::splat(v.z)];
-        Self {
-            origin: splat(origin),
-            inv_dir: splat(inv_dir),
-            octant: (inv_dir.x < 0.0) as u32
-                | ((inv_dir.y < 0.0) as u32) << 1
-                | ((inv_dir.z < 0.0) as u32) << 2,
-            tmin: Vec4::splat(tmin),
-            simd,
-        }
-    }
 
     /// Which child boxes the ray enters within `[tmin, tmax]` (bit `k` for slot `k`) and the
     /// entry distances (meaningful for those slots only), lane by lane the scalar slab test.
     #[inline(always)]
-    pub(crate) fn hits(&self, node: &WideNode, tmax: f32) -> (u32, Vec4) {
-        self.hits_planes(&node.planes(self.octant), tmax)
-    }
-
-    /// [`WideRay::hits`] against planes picked beforehand (for this ray's octant).
-    #[inline(always)]
-    pub(crate) fn hits_planes(&self, planes: &Planes, tmax: f32) -> (u32, Vec4) {
-        #[cfg(target_arch = "x86_64")]
-        {
-            super::simd::slabs(self, planes, tmax)
-        }
-        #[cfg(not(target_arch = "x86_64"))]
-        {
-            self.slabs_portable(planes, tmax)
-        }
-    }
-
-    /// [`WideRay::hits_planes`] with glam's `Vec4` only: the portable twin of the SSE version
-    /// (used where SSE is not the baseline, and by the tests everywhere).
-    #[cfg_attr(all(target_arch = "x86_64", not(test)), allow(dead_code))]
-    #[inline(always)]
-    pub(crate) fn slabs_portable(&self, planes: &Planes, tmax: f32) -> (u32, Vec4) {
-        // Hits have finite `t`, so an infinite entry (a parallel ray below a slab) is a miss.
-        let mut near = self.tmin;
-        let mut far = Vec4::splat(tmax.min(f32::MAX));
-        for axis in 0..3 {
-            let (o, inv) = (self.origin[axis], self.inv_dir[axis]);
-            let enter = (planes.near[axis] - o) * inv;
-            let exit = (planes.far[axis] - o) * inv * EXIT_SCALE;
-            // Compare-and-select, so a NaN lane (the ray grazes this slab) leaves the range
-            // alone. Folding the axes one by one gives the scalar test's max (min) of the
-            // selected values, which never depends on the order.
-            near = Vec4::select(enter.cmpgt(near), enter, near);
-            far = Vec4::select(exit.cmplt(far), exit, far);
-        }
-        (near.cmple(far).bitmask(), near)
+    pub(crate) fn hits(&self, ray: &WideRay, tmax: f32) -> (u32, Vec4) {
+        hits_planes(ray, &self.planes(ray.octant), tmax)
     }
 }
 
@@ -249,7 +134,7 @@ impl Layout for WideNode {
 
     #[inline(always)]
     fn push_hits(&self, ray: &WideRay, tmax: f32, stack: &mut Stack) {
-        let (mask, entries) = ray.hits(self, tmax);
+        let (mask, entries) = self.hits(ray, tmax);
         let order = u32::from(self.order(ray.octant));
         stack.push_hits::<4>(mask, &entries.to_array(), &self.child, order);
     }
@@ -266,7 +151,7 @@ impl Layout for WideNode {
 
     #[inline(always)]
     fn ray_mask(&self, ray: &WideRay, tmax: f32) -> u32 {
-        ray.hits(self, tmax).0
+        self.hits(ray, tmax).0
     }
 
     #[inline(always)]
@@ -293,11 +178,15 @@ impl Layout for WideNode {
     }
 }
 
+impl NodeKind for WideNode {}
+
 #[cfg(test)]
 pub(crate) mod tests {
     use super::*;
-    use crate::geom::Ray;
+    use crate::geom::{PreparedRay, Ray};
     use crate::test_support::TestRng;
+    use crate::wide::ray::BoxSimd;
+    use crate::wide::slabs::slabs_portable;
 
     /// The order bytes list the used slots nearest first along each octant's diagonal, and
     /// slot order for mixed octants.
@@ -375,9 +264,9 @@ pub(crate) mod tests {
                 node.set(slot, bounds, slot as u32);
             }
             let wide_ray = WideRay::new(&ray, BoxSimd::detect(true));
-            let (mask, entries) = wide_ray.hits(&node, tmax);
+            let (mask, entries) = node.hits(&wide_ray, tmax);
             let planes = node.planes(wide_ray.octant);
-            let (portable_mask, portable_entries) = wide_ray.slabs_portable(&planes, tmax);
+            let (portable_mask, portable_entries) = slabs_portable(&wide_ray, &planes, tmax);
             assert_eq!(mask, portable_mask, "{boxes:?}, {ray:?}");
             for slot in 0..WIDTH {
                 let scalar = if slot < slots {
