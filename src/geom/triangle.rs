@@ -154,13 +154,22 @@ impl<const KZ: usize> TriangleTest for WatertightAxis<KZ> {
         let by = b[ky] - sy * b[kz];
         let cx = c[kx] - sx * c[kz];
         let cy = c[ky] - sy * c[kz];
+        let projected = [ax, ay, bx, by, cx, cy];
+        let z = [a[kz], b[kz], c[kz]];
         let mut u = cx * by - cy * bx;
         let mut v = ax * cy - ay * cx;
         let mut w = bx * ay - by * ax;
         // Non-short-circuit `|` and `&`: one branch each instead of a chain, since whether a
         // ray passes a triangle is unpredictable (the same values, so the same answers).
-        if (u == 0.0) | (v == 0.0) | (w == 0.0) {
-            (u, v, w) = edge_functions_f64([ax, ay, bx, by, cx, cy]);
+        if below_normal(u) | below_normal(v) | below_normal(w) {
+            // An edge function that is zero (the ray on an edge or vertex) gets its exact sign
+            // in `f64`; one too small for `f32` (a triangle and ray near the origin at a tiny
+            // scale) gets the whole test in `f64`.
+            let exact = edge_functions_f64(projected);
+            if exact.iter().any(|e| below_normal(*e as f32) && *e != 0.0) {
+                return intersect_f64(ray, tri, tmax, exact, z, sz);
+            }
+            (u, v, w) = (exact[0] as f32, exact[1] as f32, exact[2] as f32);
         }
         if ((u < 0.0) | (v < 0.0) | (w < 0.0)) & ((u > 0.0) | (v > 0.0) | (w > 0.0)) {
             return None;
@@ -172,7 +181,14 @@ impl<const KZ: usize> TriangleTest for WatertightAxis<KZ> {
         // The paper scales the z coordinates by `sz = 1 / dir[kz]` before combining them; for a
         // short direction `sz` is huge and that product overflows although `t` itself is
         // finite, so the scale is applied last, to the distance along z.
-        let z_along = (u * a[kz] + v * b[kz] + w * c[kz]) / det;
+        let terms = [u * z[0], v * z[1], w * z[2]];
+        if underflows(terms[0], u, z[0])
+            | underflows(terms[1], v, z[1])
+            | underflows(terms[2], w, z[2])
+        {
+            return intersect_f64(ray, tri, tmax, edge_functions_f64(projected), z, sz);
+        }
+        let z_along = (terms[0] + terms[1] + terms[2]) / det;
         let t = z_along * sz;
         if !in_range(t, ray.tmin, tmax) {
             return None;
@@ -193,13 +209,56 @@ impl<const KZ: usize> TriangleTest for WatertightAxis<KZ> {
 /// The edge functions recomputed in `f64`, where the products of `f32` values are exact, so
 /// their signs are exact on edges and vertices.
 #[cold]
-fn edge_functions_f64(p: [f32; 6]) -> (f32, f32, f32) {
+fn edge_functions_f64(p: [f32; 6]) -> [f64; 3] {
     let [ax, ay, bx, by, cx, cy] = p.map(f64::from);
-    (
-        (cx * by - cy * bx) as f32,
-        (ax * cy - ay * cx) as f32,
-        (bx * ay - by * ax) as f32,
-    )
+    [cx * by - cy * bx, ax * cy - ay * cx, bx * ay - by * ax]
+}
+
+/// Zero or subnormal: an `f32` that may have lost its sign or its precision to underflow.
+#[inline(always)]
+fn below_normal(x: f32) -> bool {
+    x.abs() < f32::MIN_POSITIVE
+}
+
+/// Whether `product = x * y` lost precision to underflow (a tiny triangle seen from close by).
+#[inline(always)]
+fn underflows(product: f32, x: f32, y: f32) -> bool {
+    below_normal(product) & (x != 0.0) & (y != 0.0)
+}
+
+/// The watertight test in `f64` from the sheared, projected corners (`p`, as the `f32` path
+/// computes them) and their distances along the dominant axis (`z`), for triangles whose `f32`
+/// edge functions or distance terms underflow: products of `f32` values are exact in `f64`,
+/// and its range holds them at every scale a mesh may have, so tiny meshes are as exact as
+/// any other.
+#[cold]
+#[inline(never)]
+fn intersect_f64(
+    ray: &PreparedRay,
+    tri: &[Vec3; 3],
+    tmax: f32,
+    [u, v, w]: [f64; 3],
+    z: [f32; 3],
+    sz: f32,
+) -> Option<TriangleHit> {
+    if ((u < 0.0) | (v < 0.0) | (w < 0.0)) & ((u > 0.0) | (v > 0.0) | (w > 0.0)) {
+        return None;
+    }
+    let det = u + v + w;
+    if det == 0.0 {
+        return None;
+    }
+    let [za, zb, zc] = z.map(f64::from);
+    let t = ((u * za + v * zb + w * zc) / det * f64::from(sz)) as f32;
+    if !in_range(t, ray.tmin, tmax) {
+        return None;
+    }
+    let hit = TriangleHit {
+        t,
+        u: (v / det) as f32,
+        v: (w / det) as f32,
+    };
+    agree_with_bounds(ray, tri, tmax, hit)
 }
 
 /// `tmin <= t <= tmax` with a finite `t`; written so that a NaN `t` is out of range.
@@ -346,6 +405,42 @@ mod tests {
     fn parallel_ray_misses() {
         for hit in both(Vec3::new(-1.0, 0.25, 1.0), Vec3::X, &TRI) {
             assert!(hit.is_none());
+        }
+    }
+
+    /// A triangle of side `s` near the origin, tilted, and a ray through its middle from
+    /// `1.5 s` away: hit at every scale, `t` and the barycentrics as at scale 1 (the `f32`
+    /// products underflow from about 1e-13: the test then runs in `f64`).
+    #[test]
+    fn tiny_triangles_are_exact() {
+        let unit = [
+            Vec3::new(0.0, 0.0, 1.0),
+            Vec3::new(1.0, 0.0, 1.25),
+            Vec3::new(0.0, 1.0, 0.75),
+        ];
+        let middle = (unit[0] + unit[1] + unit[2]) / 3.0;
+        let origin = Vec3::new(middle.x, middle.y, middle.z - 1.5);
+        let at_one = Watertight::intersect(
+            &PreparedRay::new(&Ray::new(origin, Vec3::Z)).unwrap(),
+            &unit,
+            f32::INFINITY,
+        )
+        .unwrap();
+        for exponent in [-10, -13, -15, -18, -22, -23, -26, -30, -34] {
+            let s = 10f32.powi(exponent);
+            let tri = unit.map(|p| p * s);
+            let ray = PreparedRay::new(&Ray::new(origin * s, Vec3::Z)).unwrap();
+            let hit = Watertight::intersect(&ray, &tri, f32::INFINITY)
+                .unwrap_or_else(|| panic!("missed at scale {s}"));
+            assert!(
+                ((hit.t / s) / at_one.t - 1.0).abs() < 1e-5,
+                "{s}: t/s {}",
+                hit.t / s
+            );
+            assert!((hit.u - at_one.u).abs() < 1e-5 && (hit.v - at_one.v).abs() < 1e-5);
+            // The sign filter keeps every lane the kernel hits.
+            let quad = crate::geom::sign_filter::RayQuad::from_rays([&ray; 4]);
+            assert_eq!(quad.may_hit(&tri), 0b1111, "{s}");
         }
     }
 }

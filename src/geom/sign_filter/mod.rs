@@ -7,8 +7,8 @@
 //! lane by lane, the very `f32` operations of [`super::WatertightAxis::intersect`] in the same
 //! order (no fused multiply-add: Rust never contracts `a * b - c`), so each lane's values are
 //! the kernel's values bit for bit. A lane is cleared only where the kernel would return `None`
-//! at that test without its `f64` recomputation: no edge function is exactly zero, and the
-//! signs are mixed. Every other lane runs the scalar kernel, which alone decides hits; so a
+//! at that test without its `f64` recomputation: no edge function is zero or subnormal, and
+//! the signs are mixed. Every other lane runs the scalar kernel, which alone decides hits; so a
 //! filtered leaf test reports exactly the hits of an unfiltered one, in the same order.
 //!
 //! Lanes hold rays of any dominant axis: the axis permutation the scalar kernel resolves at
@@ -66,10 +66,12 @@ impl RayQuad {
         let v = ax * cy - ay * cx;
         let w = bx * ay - by * ax;
         let zero = Vec4::ZERO;
-        let any_zero = u.cmpeq(zero) | v.cmpeq(zero) | w.cmpeq(zero);
+        let normal = Vec4::splat(f32::MIN_POSITIVE);
+        let any_below_normal =
+            u.abs().cmplt(normal) | v.abs().cmplt(normal) | w.abs().cmplt(normal);
         let any_negative = u.cmplt(zero) | v.cmplt(zero) | w.cmplt(zero);
         let any_positive = u.cmpgt(zero) | v.cmpgt(zero) | w.cmpgt(zero);
-        let certain_miss = any_negative & any_positive & !any_zero;
+        let certain_miss = any_negative & any_positive & !any_below_normal;
         !certain_miss.bitmask() & 0b1111
     }
 
