@@ -33,13 +33,17 @@ use crate::geom::Ray;
 use crate::query::{BatchError, BatchQueries};
 use crate::workspace::StructureId;
 
-/// The receipt for one request: which frame it belongs to and its place in that frame.
+/// The receipt for one request (or, from [`LosQueue::submit_all`], for a list of them): which
+/// frame it belongs to and its place in that frame.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub struct Ticket {
     /// The queue that issued it (a [`StructureId`]), so another queue's ticket is refused.
     queue: u64,
     frame: u64,
     index: u32,
+    /// Requests the ticket covers: 1, the length of a list, or 0 for a ticket that names no
+    /// request (an [`Ticket::offset`] past its list).
+    count: u32,
 }
 
 impl Ticket {
@@ -49,11 +53,16 @@ impl Ticket {
     }
 
     /// The ticket of the `k`-th ray of a [`LosQueue::submit_all`] that returned this ticket.
+    /// Past the list it names no request: [`LosQueue::visible`] refuses it with
+    /// [`QueueError::UnknownTicket`].
     pub fn offset(&self, k: usize) -> Ticket {
-        Ticket {
-            queue: self.queue,
-            frame: self.frame,
-            index: self.index.saturating_add(k.try_into().unwrap_or(u32::MAX)),
+        match u32::try_from(k) {
+            Ok(k) if k < self.count => Ticket {
+                index: self.index + k,
+                count: 1,
+                ..*self
+            },
+            _ => Ticket { count: 0, ..*self },
         }
     }
 }
@@ -144,8 +153,10 @@ pub struct LosQueue {
 }
 
 impl LosQueue {
-    /// Most requests one frame may hold: 2^24 (16.8M requests, 512 MiB of slots), far above a
-    /// frame's line-of-sight work and far below what would exhaust memory.
+    /// Most requests one frame may hold: 2^24 (16.8M requests), far above a frame's
+    /// line-of-sight work. A queue takes 32 bytes of slots per request of capacity when made
+    /// (512 MiB at this maximum), and its flushes 33 bytes more per request answered (a copy
+    /// of the rays and the answers: about 1 GiB in all at the maximum).
     pub const MAX_CAPACITY: usize = 1 << 24;
 
     /// A queue for up to `capacity` requests per frame (1 to [`LosQueue::MAX_CAPACITY`]; other
@@ -208,6 +219,7 @@ impl LosQueue {
             queue: self.id.get(),
             frame: self.frame,
             index: index as u32,
+            count: 1,
         })
     }
 
@@ -229,6 +241,7 @@ impl LosQueue {
             queue: self.id.get(),
             frame: self.frame,
             index: start as u32,
+            count: rays.len() as u32,
         })
     }
 
@@ -251,7 +264,7 @@ impl LosQueue {
 
     /// True if the request's segment is clear, as of the flush that answered it.
     pub fn visible(&self, ticket: Ticket) -> Result<bool, QueueError> {
-        if ticket.queue != self.id.get() {
+        if ticket.queue != self.id.get() || ticket.count == 0 {
             return Err(QueueError::UnknownTicket);
         }
         match self.answered {

@@ -120,6 +120,20 @@ fn lists_submitted_at_once_get_consecutive_tickets() {
     for (k, ray) in rays.iter().enumerate() {
         assert_eq!(queue.visible(first.offset(k)), Ok(!scene.occluded(ray)));
     }
+    // Past the list: not the answer of the request taken after it, but no answer at all.
+    let after = queue.submit_all(&rays).unwrap();
+    queue.submit(Vec3::ZERO, Vec3::X).unwrap();
+    queue.flush(&scene).unwrap();
+    for k in [4, 5, usize::MAX] {
+        assert_eq!(
+            queue.visible(after.offset(k)),
+            Err(QueueError::UnknownTicket)
+        );
+    }
+    assert_eq!(
+        queue.visible(after.offset(1).offset(1)),
+        Err(QueueError::UnknownTicket)
+    );
 }
 
 /// Tickets only open answers of the queue that issued them: another queue's ticket, or an
