@@ -52,6 +52,12 @@ pub enum SceneError {
         /// The triangle's id.
         triangle: u32,
     },
+    /// A triangle the tree tests has no area after the deformation (degenerate triangles are
+    /// never hit): the tree must be rebuilt to answer exactly.
+    NewlyDegenerateTriangle {
+        /// The triangle's id.
+        triangle: u32,
+    },
     /// The mesh's tree cannot be refitted in place (only the full-node AABB tree can; other
     /// kinds store or recompute boxes from data a deformation invalidates): rebuild it.
     NotRefittable {
@@ -93,6 +99,10 @@ impl std::fmt::Display for SceneError {
             SceneError::NewlyValidTriangle { triangle } => write!(
                 f,
                 "triangle {triangle} was degenerate when the tree was built and has an area now; rebuild the tree"
+            ),
+            SceneError::NewlyDegenerateTriangle { triangle } => write!(
+                f,
+                "triangle {triangle} has no area after the deformation; rebuild the tree"
             ),
             SceneError::NotRefittable { kind } => {
                 write!(f, "a {kind} tree cannot be refitted; rebuild it")

@@ -8,8 +8,10 @@
 //! those of brute force over the deformed mesh. What degrades is speed: the split planes and
 //! the child-order bytes were chosen for the old positions (rebuild after large motions).
 //!
-//! One case is refused: a triangle degenerate at build has no leaf slot, so it could never be
-//! reported; if the deformation gives it an area, the tree must be rebuilt.
+//! Two cases are refused, as the tree could no longer answer exactly: a triangle degenerate at
+//! build has no leaf slot, so it could never be reported, and the deformation gives it an
+//! area; or a triangle with a slot loses its area (degenerate triangles are never hit, and the
+//! kernel's rounding could hit one still in a leaf). The tree must then be rebuilt.
 
 use std::sync::Arc;
 
@@ -46,7 +48,7 @@ fn refit(tree: &mut AabbTree, vertices: Vec<Vec3>) -> Result<(), SceneError> {
         });
     }
     let mesh = Mesh::new(vertices, old.triangles().to_vec())?;
-    check_slotless_stay_degenerate(tree.triangles.ids(), &mesh)?;
+    check_degenerate_stay_so(tree.triangles.ids(), &mesh)?;
     let bounds = node_bounds(tree, &mesh);
     for (index, b) in bounds.into_iter().enumerate() {
         tree.nodes.set_bounds(index as u32, b);
@@ -55,18 +57,18 @@ fn refit(tree: &mut AabbTree, vertices: Vec<Vec3>) -> Result<(), SceneError> {
     Ok(())
 }
 
-/// Errors if a triangle without a leaf slot (degenerate at build) has an area now.
-fn check_slotless_stay_degenerate(
-    ids: impl Iterator<Item = u32>,
-    mesh: &Mesh,
-) -> Result<(), SceneError> {
+/// Errors if a triangle without a leaf slot (degenerate at build) has an area now, or one with
+/// a slot has none.
+fn check_degenerate_stay_so(ids: impl Iterator<Item = u32>, mesh: &Mesh) -> Result<(), SceneError> {
     let mut slotted = vec![false; mesh.triangle_count()];
     for id in ids {
         slotted[id as usize] = true;
     }
-    match (0..mesh.triangle_count() as u32)
-        .find(|&id| !slotted[id as usize] && !mesh.is_degenerate(id))
-    {
+    let changed = |id: u32| slotted[id as usize] == mesh.is_degenerate(id);
+    match (0..mesh.triangle_count() as u32).find(|&id| changed(id)) {
+        Some(triangle) if slotted[triangle as usize] => {
+            Err(SceneError::NewlyDegenerateTriangle { triangle })
+        }
         Some(triangle) => Err(SceneError::NewlyValidTriangle { triangle }),
         None => Ok(()),
     }

@@ -292,3 +292,29 @@ fn a_triangle_degenerate_at_build_refuses_a_refit_that_gives_it_an_area() {
         .unwrap();
     assert_eq!(hit.triangle, 0);
 }
+
+/// A deformation that collapses a triangle the tree tests (a vertex moved onto the line of
+/// the other two) is refused, and the scene keeps answering as before it; rays aimed at the
+/// collapsed edge would otherwise hit a triangle with no area.
+#[test]
+fn a_refit_that_collapses_a_triangle_is_refused() {
+    let mesh = Mesh::new(
+        vec![Vec3::ZERO, Vec3::X, Vec3::Y, Vec3::new(1.0, 1.0, 0.0)],
+        vec![[0, 1, 2], [1, 3, 2]],
+    )
+    .unwrap();
+    let tree = AccelKind::Aabb
+        .build(mesh, &BuildOptions::default())
+        .unwrap();
+    let mut scene = Scene::new(vec![tree], &[InstanceDesc::new(0, Rigid::IDENTITY)]).unwrap();
+    let ray = Ray::new(Vec3::new(0.75, 0.75, -1.0), Vec3::Z);
+    let before = scene.cast_ray(&ray);
+    assert_eq!(before.map(|h| h.triangle), Some(1));
+    // Vertex 3 onto the segment from vertex 1 to vertex 2: triangle 1 has no area.
+    let collapsed = vec![Vec3::ZERO, Vec3::X, Vec3::Y, Vec3::new(0.5, 0.5, 0.0)];
+    assert_eq!(
+        scene.deform_mesh(0, collapsed),
+        Err(SceneError::NewlyDegenerateTriangle { triangle: 1 })
+    );
+    assert_eq!(scene.cast_ray(&ray), before);
+}
