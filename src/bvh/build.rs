@@ -19,6 +19,7 @@ use glam::{Vec3, Vec3A};
 
 use crate::geom::Aabb;
 use crate::mesh::Mesh;
+use crate::parallel;
 
 use super::leaves::LeafCopy;
 use super::ordering::{ChildOrdering, ordering_byte};
@@ -120,6 +121,15 @@ impl BuildOptions {
 pub enum BuildError {
     /// `max_leaf_size` or `wide_leaf_size` is 0 or above [`MAX_LEAF_SIZE`].
     BadLeafSize(u32),
+    /// An option is out of its range (a NaN density, zero cells, ...).
+    BadOption {
+        /// The option's name.
+        option: &'static str,
+        /// The value given.
+        value: String,
+        /// What the option accepts.
+        expected: &'static str,
+    },
     /// The mesh needs more nodes or triangle slots than the node format can address.
     TooLarge {
         /// The node format.
@@ -137,6 +147,11 @@ impl std::fmt::Display for BuildError {
             BuildError::BadLeafSize(n) => {
                 write!(f, "leaf size {n} is not in 1..={MAX_LEAF_SIZE}")
             }
+            BuildError::BadOption {
+                option,
+                value,
+                expected,
+            } => write!(f, "{option} is {value}; it must be {expected}"),
             BuildError::TooLarge {
                 format,
                 needed,
@@ -316,7 +331,8 @@ impl Builder {
             return vec![leaf(bounds, offset, prims.len())];
         };
         let (left, right) = prims.split_at_mut(mid);
-        let (l, r) = rayon::join(
+        let (l, r) = parallel::join(
+            true,
             || self.build_subtree(left, le, offset, depth + 1),
             || self.build_subtree(right, re, offset + mid as u32, depth + 1),
         );

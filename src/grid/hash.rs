@@ -120,6 +120,7 @@ impl SpatialHash {
     /// may be far larger (only non-empty cells are stored). An empty mesh gives a grid every
     /// ray misses.
     pub fn build(mesh: impl Into<Arc<Mesh>>, options: &GridOptions) -> Result<Self, BuildError> {
+        options.validate()?;
         let mesh = mesh.into();
         let (live, boxes, bounds) = live_triangles(&mesh)?;
         if live.is_empty() {

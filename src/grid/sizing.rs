@@ -18,6 +18,7 @@
 //! `w_a^SHAPE_EXPONENT`, at most [`MAX_ASPECT`] times longer than wide (measured on the
 //! terrain, bunny, city and sparse world: see the README).
 
+use crate::bvh::BuildError;
 use crate::geom::Aabb;
 use crate::mesh::Mesh;
 
@@ -57,6 +58,41 @@ impl Default for GridOptions {
     }
 }
 
+impl GridOptions {
+    /// `Ok` if every option is in its range: a finite, positive density, at least one cell,
+    /// and at least one cell along each axis of a given resolution.
+    pub fn validate(&self) -> Result<(), BuildError> {
+        let bad = |option, value: String, expected| {
+            Err(BuildError::BadOption {
+                option,
+                value,
+                expected,
+            })
+        };
+        let density = self.cells_per_triangle;
+        if !(density.is_finite() && density > 0.0) {
+            return bad(
+                "cells_per_triangle",
+                density.to_string(),
+                "finite and above 0",
+            );
+        }
+        if self.max_cells == 0 {
+            return bad("max_cells", "0".into(), "at least 1");
+        }
+        if let Some(dims) = self.resolution
+            && dims.contains(&0)
+        {
+            return bad(
+                "resolution",
+                format!("{dims:?}"),
+                "at least 1 cell per axis",
+            );
+        }
+        Ok(())
+    }
+}
+
 /// The relative sides of the cells for the triangles `live` of `mesh` (see the module docs):
 /// `[1, 1, 1]` for cubes (also if [`GridOptions::shaped_cells`] is off, or the triangles have
 /// no area), else `w_a^SHAPE_EXPONENT` for the projected areas `w_a`, scaled so that the
@@ -89,9 +125,9 @@ pub(crate) fn resolution(
     options: &GridOptions,
 ) -> [u32; 3] {
     if let Some(dims) = options.resolution {
-        return cap(dims.map(|d| d.max(1)), options.max_cells.max(1));
+        return cap(dims, options.max_cells);
     }
-    let max_cells = options.max_cells.max(1) as f64;
+    let max_cells = options.max_cells as f64;
     let density = f64::from(options.cells_per_triangle);
     let target = (density * triangles as f64).clamp(1.0, max_cells);
     let extent = bounds.extent().to_array().map(f64::from);

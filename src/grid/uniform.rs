@@ -50,6 +50,7 @@ impl UniformGrid {
     /// ray misses; a mesh of more than `2^31 - 1` triangles is too large (cell references
     /// keep one bit for the mailbox).
     pub fn build(mesh: impl Into<Arc<Mesh>>, options: &GridOptions) -> Result<Self, BuildError> {
+        options.validate()?;
         let mesh = mesh.into();
         let (live, boxes, bounds) = live_triangles(&mesh)?;
         if live.is_empty() {

@@ -21,6 +21,7 @@ mod los_queue;
 mod mesh_errors;
 mod no_threads;
 mod node_visits;
+mod option_extremes;
 mod proptest_vs_brute_force;
 mod quantized_vertices;
 mod scene_edits;
