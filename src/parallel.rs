@@ -6,6 +6,10 @@
 //! itself (with rayon's default settings, exactly what rayon would do) and remembers whether
 //! that worked; if not, every "parallel" operation runs on the calling thread. Answers never
 //! depend on the thread count, so nothing but speed changes.
+//!
+//! This is the one module that calls rayon: the rest of the crate asks it for parallel work
+//! ([`join`], [`workers`], [`for_each_chunk_pair`]), so none of it can start rayon's global
+//! pool behind the fallback's back.
 
 use std::error::Error;
 use std::sync::OnceLock;
@@ -36,5 +40,53 @@ pub(crate) fn thread_count(parallel: bool) -> usize {
         rayon::current_num_threads()
     } else {
         1
+    }
+}
+
+/// `(a(), b())`, the two in parallel when `parallel` and threads are available.
+pub(crate) fn join<A, B, RA, RB>(parallel: bool, a: A, b: B) -> (RA, RB)
+where
+    A: FnOnce() -> RA + Send,
+    B: FnOnce() -> RB + Send,
+    RA: Send,
+    RB: Send,
+{
+    if enabled(parallel) {
+        rayon::join(a, b)
+    } else {
+        (a(), b())
+    }
+}
+
+/// Runs `worker` as `count` tasks at once in the current pool (each runs until it finds no
+/// more work), or once on the calling thread when `count` is 1 or threads are not available.
+pub(crate) fn workers(count: usize, worker: impl Fn() + Sync) {
+    if count <= 1 || !threads_available() {
+        return worker();
+    }
+    let worker = &worker;
+    rayon::scope(|scope| {
+        for _ in 0..count {
+            scope.spawn(move |_| worker());
+        }
+    });
+}
+
+/// `f(a_part, b_part)` on matching parts of `part` elements of `a` and `b`, in parallel when
+/// threads are available.
+pub(crate) fn for_each_chunk_pair<T: Sync, U: Send>(
+    (a, b): (&[T], &mut [U]),
+    part: usize,
+    f: impl Fn(&[T], &mut [U]) + Sync,
+) {
+    use rayon::prelude::*;
+    if threads_available() {
+        a.par_chunks(part)
+            .zip(b.par_chunks_mut(part))
+            .for_each(|(a, b)| f(a, b));
+    } else {
+        a.chunks(part)
+            .zip(b.chunks_mut(part))
+            .for_each(|(a, b)| f(a, b));
     }
 }

@@ -74,14 +74,9 @@ pub(crate) fn for_each_chunk<T: Send>(
         // The queue holds one item per chunk of the plan.
         assert!(queue.push(item).is_ok(), "the chunk queue is full");
     }
-    let (queue, f) = (&queue, &f);
-    rayon::scope(|scope| {
-        for _ in 0..workers {
-            scope.spawn(move |_| {
-                while let Some((offset, rays, out)) = queue.pop() {
-                    f(offset, rays, out);
-                }
-            });
+    parallel::workers(workers, || {
+        while let Some((offset, rays, out)) = queue.pop() {
+            f(offset, rays, out);
         }
     });
 }

@@ -20,8 +20,6 @@
 
 use std::sync::Mutex;
 
-use rayon::prelude::*;
-
 use crate::accel::Footprint;
 use crate::batch::BatchOptions;
 use crate::geom::Ray;
@@ -234,28 +232,25 @@ pub fn occlusion_batch<W: BatchQueries + Sync>(
         .with_min_batch(0);
     let part = segments
         .len()
-        .div_ceil(rayon::current_num_threads())
+        .div_ceil(crate::parallel::thread_count(true))
         .max(256);
-    segments
-        .par_chunks(part)
-        .zip(out.par_chunks_mut(part))
-        .for_each(|(rays, out)| {
-            let hits = Mutex::new(Vec::<(usize, Hit)>::new());
-            world.for_each_hit_batch_with(rays, &options, &|i, h| {
-                hits.lock().unwrap_or_else(|e| e.into_inner()).push((i, h))
-            });
-            let mut hits = hits.into_inner().unwrap_or_else(|e| e.into_inner());
-            hits.sort_by(|(i, a), (j, b)| {
-                i.cmp(j)
-                    .then(a.t.total_cmp(&b.t))
-                    .then(a.triangle.cmp(&b.triangle))
-            });
-            let mut start = 0;
-            for (k, o) in out.iter_mut().enumerate() {
-                let end = start + hits[start..].partition_point(|(i, _)| *i == k);
-                *o = accumulate(&hits[start..end], |(_, h)| h, materials, limit);
-                start = end;
-            }
+    crate::parallel::for_each_chunk_pair((segments, out), part, |rays, out| {
+        let hits = Mutex::new(Vec::<(usize, Hit)>::new());
+        world.for_each_hit_batch_with(rays, &options, &|i, h| {
+            hits.lock().unwrap_or_else(|e| e.into_inner()).push((i, h))
         });
+        let mut hits = hits.into_inner().unwrap_or_else(|e| e.into_inner());
+        hits.sort_by(|(i, a), (j, b)| {
+            i.cmp(j)
+                .then(a.t.total_cmp(&b.t))
+                .then(a.triangle.cmp(&b.triangle))
+        });
+        let mut start = 0;
+        for (k, o) in out.iter_mut().enumerate() {
+            let end = start + hits[start..].partition_point(|(i, _)| *i == k);
+            *o = accumulate(&hits[start..end], |(_, h)| h, materials, limit);
+            start = end;
+        }
+    });
     Ok(())
 }

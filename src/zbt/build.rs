@@ -107,17 +107,11 @@ impl RangeBuilder {
         own_high[1] = aux_word(order, [gl.inherited, gr.inherited]);
         let (lp, rp) = rest.split_at_mut(mid);
         let (lh, rh) = rest_high.split_at_mut(mid);
-        let (dl, dr) = if self.parallel && m > PARALLEL_THRESHOLD {
-            rayon::join(
-                || self.node(lp, lh, depth + 1, gl),
-                || self.node(rp, rh, depth + 1, gr),
-            )
-        } else {
-            (
-                self.node(lp, lh, depth + 1, gl),
-                self.node(rp, rh, depth + 1, gr),
-            )
-        };
+        let (dl, dr) = crate::parallel::join(
+            self.parallel && m > PARALLEL_THRESHOLD,
+            || self.node(lp, lh, depth + 1, gl),
+            || self.node(rp, rh, depth + 1, gr),
+        );
         1 + dl.max(dr)
     }
 

@@ -1,5 +1,6 @@
-//! When the system refuses new threads, builds and batched queries fall back to the calling
-//! thread instead of panicking (rayon's global pool would panic on first use).
+//! When the system refuses new threads, builds, batched queries (plain, scenes), the
+//! line-of-sight queue and batched audio occlusion fall back to the calling thread instead of
+//! panicking (rayon's global pool would panic on first use), with the same answers.
 //!
 //! Thread creation is made to fail in a child process: `RUST_MIN_STACK` asks for a stack larger
 //! than the address space, so every `std::thread` spawn (and so rayon's pool start) fails with
@@ -7,6 +8,8 @@
 
 use std::process::Command;
 
+use raybatch::scene::{InstanceDesc, Rigid, Scene};
+use raybatch::users::{LosQueue, Materials, Occlusion, occlusion, occlusion_batch};
 use raybatch::{AccelKind, BatchOptions, BuildOptions, Mesh, Ray};
 use raybatch::{BatchQueries, RayQueries};
 
@@ -69,8 +72,50 @@ fn child() {
             assert_eq!(occluded[i], tree.occluded(ray), "{} ray {i}", kind.name());
         }
         assert!(hits.iter().all(Option::is_some));
+        let every = std::sync::Mutex::new(0usize);
+        tree.for_each_hit_batch_with(&rays, &batch, &|_, _| *every.lock().unwrap() += 1);
+        assert_eq!(every.into_inner().unwrap(), rays.len(), "{}", kind.name());
     }
+    scene_queue_and_audio(&mesh);
     println!("child: done");
+}
+
+/// The users' layer without threads: a scene's batched queries, a line-of-sight queue's
+/// flush and batched audio occlusion answer as one ray at a time does.
+fn scene_queue_and_audio(mesh: &Mesh) {
+    let tree = AccelKind::DEFAULT
+        .build(mesh.clone(), &BuildOptions::default())
+        .expect("build");
+    let scene = Scene::new(vec![tree], &[InstanceDesc::new(0, Rigid::IDENTITY)]).expect("scene");
+    let segments: Vec<Ray> = (0..5_000)
+        .map(|i| {
+            let p = glam::Vec3::new((i % 100) as f32 + 0.5, (i / 100) as f32 + 0.5, 1.0);
+            Ray::segment(p, p - glam::Vec3::Z * (i % 3) as f32)
+        })
+        .collect();
+    let mut occluded = vec![false; segments.len()];
+    scene
+        .occluded_batch(&segments, &mut occluded)
+        .expect("lengths match");
+    let mut queue = LosQueue::with_capacity(segments.len()).expect("capacity");
+    let first = queue.submit_all(&segments).expect("room");
+    queue.flush(&scene).expect("lengths match");
+    let materials = Materials::uniform(&scene, 6.0).expect("one loss per triangle");
+    let mut losses = vec![Occlusion::default(); segments.len()];
+    occlusion_batch(&scene, &materials, &segments, u32::MAX, &mut losses).expect("lengths");
+    for (k, ray) in segments.iter().enumerate() {
+        assert_eq!(occluded[k], scene.occluded(ray), "scene, segment {k}");
+        assert_eq!(
+            queue.visible(first.offset(k)),
+            Ok(!occluded[k]),
+            "queue, segment {k}"
+        );
+        assert_eq!(
+            losses[k],
+            occlusion(&scene, &materials, ray, u32::MAX),
+            "audio {k}"
+        );
+    }
 }
 
 /// A flat `n` x `n` grid of unit squares in the plane z = 0, two triangles each.
