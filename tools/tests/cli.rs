@@ -904,3 +904,123 @@ fn render_draws_the_mesh() {
         stderr(&heat_batched)
     );
 }
+
+/// Without threads (every thread spawn fails: `RUST_MIN_STACK` asks for more stack than the
+/// address space), every command runs on the calling thread with the same output, or, for
+/// `bench`, which times thread pools, fails with a message: never a panic.
+#[test]
+fn commands_without_threads() {
+    let no_threads = |args: &[&str]| {
+        Command::new(env!("CARGO_BIN_EXE_raybatch"))
+            .args(args)
+            .env("RUST_MIN_STACK", (1u64 << 50).to_string())
+            .output()
+            .expect("run raybatch")
+    };
+    let dir = TempDir::new("no-threads");
+    let rays = many_rays();
+    let (mesh, rays_path) = write_inputs(&dir, &rays);
+    let (mesh, rays_path) = (mesh.to_str().unwrap(), rays_path.to_str().unwrap());
+    for kind in ["closest", "any"] {
+        let base = ["query", "--mesh", mesh, "--rays", rays_path, "--kind", kind];
+        let with = dir.path("with.bin");
+        let without = dir.path("without.bin");
+        let expected = raybatch(&[&base[..], &["--out", with.to_str().unwrap()]].concat());
+        assert!(expected.status.success(), "{}", stderr(&expected));
+        for extra in [&["--batched"][..], &[]] {
+            let out = ["--out", without.to_str().unwrap()];
+            let got = no_threads(&[&base[..], extra, &out].concat());
+            assert_eq!(got.status.code(), Some(0), "{extra:?}: {}", stderr(&got));
+            assert!(std::fs::read(&with).unwrap() == std::fs::read(&without).unwrap());
+        }
+    }
+    let written = |f: &dyn Fn(&[&str]) -> Output, name: &str| {
+        let out = dir.path(name);
+        let args = [
+            "rays",
+            "--mesh",
+            mesh,
+            "--set",
+            "incoherent",
+            "--count",
+            "3000",
+        ];
+        let run = f(&[&args[..], &["--out", out.to_str().unwrap()]].concat());
+        assert_eq!(run.status.code(), Some(0), "{}", stderr(&run));
+        std::fs::read(out).unwrap()
+    };
+    assert!(written(&raybatch, "a.bin") == written(&no_threads, "b.bin"));
+    let image = dir.path("image.png");
+    let render = no_threads(&[
+        "render",
+        "--mesh",
+        mesh,
+        "--out",
+        image.to_str().unwrap(),
+        "--width",
+        "64",
+        "--height",
+        "48",
+        "--batched",
+    ]);
+    assert_eq!(render.status.code(), Some(0), "{}", stderr(&render));
+    let bench = no_threads(&["bench", "--quick", "--mesh", mesh]);
+    assert_eq!(bench.status.code(), Some(1), "{}", stderr(&bench));
+    assert!(stderr(&bench).contains("threads"), "{}", stderr(&bench));
+}
+
+/// Counts that would exhaust memory are usage errors naming the limit, not aborts.
+#[test]
+fn huge_counts_are_usage_errors() {
+    for args in [
+        &[
+            "query",
+            "--mesh",
+            "m.obj",
+            "--rays",
+            "r.bin",
+            "--kind",
+            "any",
+            "--out",
+            "-",
+            "--passes",
+            "4294967295",
+        ][..],
+        &[
+            "rays",
+            "--mesh",
+            "m.obj",
+            "--set",
+            "incoherent",
+            "--count",
+            "18446744073709551615",
+            "--out",
+            "-",
+        ],
+        &[
+            "rays",
+            "--mesh",
+            "m.obj",
+            "--set",
+            "incoherent",
+            "--count",
+            "1000000000",
+            "--out",
+            "-",
+        ],
+        &["bench", "--rays", "1000000000"],
+    ] {
+        let output = raybatch(args);
+        assert_eq!(
+            output.status.code(),
+            Some(2),
+            "{args:?}: {}",
+            stderr(&output)
+        );
+        assert!(
+            stderr(&output).contains("more than"),
+            "{args:?}: {}",
+            stderr(&output)
+        );
+    }
+}

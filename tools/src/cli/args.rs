@@ -78,9 +78,9 @@ pub struct BenchArgs {
     /// default structure.
     #[arg(long, value_name = "LIST", value_delimiter = ',', value_parser = tree_parser())]
     pub trees: Option<Vec<AccelKind>>,
-    /// Rays per ray set [default: 100000, or 20000 with --quick]; with --rays, the fixed and
-    /// split-axis orderings are timed too, on at most 200000.
-    #[arg(long, value_name = "N", value_parser = positive)]
+    /// Rays per ray set [default: 100000, or 20000 with --quick; at most 16777216]; with
+    /// --rays, the fixed and split-axis orderings are timed too, on at most 200000.
+    #[arg(long, value_name = "N", value_parser = bench_rays)]
     pub rays: Option<usize>,
     /// Largest leaf size.
     #[arg(long, value_name = "N", default_value = DEFAULT_LEAF, value_parser = leaf_size)]
@@ -133,8 +133,8 @@ pub struct QueryArgs {
     pub threads: Option<usize>,
     /// Answer the rays once to warm up, then N more times, timing each; the JSON line reports
     /// the median (query_ms, mrays_per_s) and every pass (passes_ms) [default: one timed pass,
-    /// no warm-up].
-    #[arg(long, value_name = "N", value_parser = positive)]
+    /// no warm-up; at most 1000].
+    #[arg(long, value_name = "N", value_parser = passes)]
     pub passes: Option<usize>,
     /// With --batched, pass the rays to the API in calls of N rays [default: all in one call],
     /// e.g. 4096 for a game frame's line-of-sight work.
@@ -181,8 +181,8 @@ pub struct RaysArgs {
     /// Which ray set.
     #[arg(long, value_parser = choice(&RaySet::ALL, RaySet::name))]
     pub set: RaySet,
-    /// How many rays.
-    #[arg(long, value_name = "N", value_parser = positive)]
+    /// How many rays (at most 134217728: 4 GiB of rays).
+    #[arg(long, value_name = "N", value_parser = ray_count)]
     pub count: usize,
     /// Where to write them ('-': stdout).
     #[arg(long, value_name = "RAYS.bin")]
@@ -260,6 +260,40 @@ fn positive(text: &str) -> Result<usize, String> {
         Ok(n) => Ok(n),
         Err(_) => Err(format!("'{text}' is not a whole number")),
     }
+}
+
+/// A whole number from 1 to `max`; `what` says what the limit keeps in bounds.
+fn at_most(text: &str, max: usize, what: &str) -> Result<usize, String> {
+    let n = positive(text)?;
+    if n > max {
+        return Err(format!("{n} is more than {max} ({what})"));
+    }
+    Ok(n)
+}
+
+/// Most timed passes of `query --passes`: each pass's time is kept.
+const MAX_PASSES: usize = 1000;
+
+fn passes(text: &str) -> Result<usize, String> {
+    at_most(text, MAX_PASSES, "the most passes a query times")
+}
+
+/// Most rays `rays --count` writes: 4 GiB of rays, generated in memory before they are written.
+pub const MAX_RAY_COUNT: usize = 1 << 27;
+
+fn ray_count(text: &str) -> Result<usize, String> {
+    at_most(text, MAX_RAY_COUNT, "4 GiB of rays, generated in memory")
+}
+
+/// Most rays per set `bench --rays` takes: each scene holds five sets and their answers.
+pub const MAX_BENCH_RAYS: usize = 1 << 24;
+
+fn bench_rays(text: &str) -> Result<usize, String> {
+    at_most(
+        text,
+        MAX_BENCH_RAYS,
+        "five sets of rays and their answers per scene",
+    )
 }
 
 fn leaf_size(text: &str) -> Result<u32, String> {

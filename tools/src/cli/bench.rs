@@ -129,6 +129,16 @@ impl From<Scene> for BenchScene {
 
 /// Runs the benchmark and prints its tables on stdout.
 pub fn run(args: &BenchArgs) -> Result<(), CliError> {
+    // The tables time queries on pools of up to `compare::THREADS` threads.
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(compare::THREADS)
+        .build()
+        .map_err(|e| {
+            CliError::input(format!(
+                "the benchmark needs {} threads and the system refused them: {e}",
+                compare::THREADS
+            ))
+        })?;
     let plan = Plan::from_args(args);
     for scene in load_scenes(args)? {
         let section = bench_scene(&scene, &plan);

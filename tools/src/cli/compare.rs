@@ -16,7 +16,7 @@ use crate::table::{Align, Table, mrays, ratio, thousands};
 use crate::workload::{COLUMNS, Column, PASSES, RaySets, speed, time_in_batches};
 
 /// Threads of the parallel column of the per-ray vs batched table.
-const THREADS: usize = 2;
+pub const THREADS: usize = 2;
 
 /// Batched closest hits on one thread with `ordering` and `partition`.
 fn batched_closest(ordering: BatchOrdering, partition: PartitionKernel) -> Query {

@@ -46,10 +46,29 @@ fn main() -> ExitCode {
 }
 
 fn run(command: Command) -> Result<(), CliError> {
+    start_rayon();
     match command {
         Command::Bench(a) => bench::run(&a),
         Command::Query(a) => query::run(&a),
         Command::Rays(a) => rays::run(&a),
         Command::Render(a) => render::run(&a),
     }
+}
+
+/// Starts rayon's global pool, which the commands' parallel iterators use. Where the system
+/// refuses threads (a process limit, a sandbox), the pool is this thread alone, so the commands
+/// run sequentially instead of panicking; answers never depend on the thread count. (A failed
+/// start leaves rayon's global pool unusable, so a thread is tried first.)
+fn start_rayon() {
+    let threads_start = std::thread::Builder::new()
+        .spawn(|| ())
+        .is_ok_and(|thread| thread.join().is_ok());
+    let builder = rayon::ThreadPoolBuilder::new();
+    let builder = if threads_start {
+        builder
+    } else {
+        builder.num_threads(1).use_current_thread()
+    };
+    // An error here means the pool exists already: nothing to do.
+    let _ = builder.build_global();
 }
