@@ -82,3 +82,8 @@ pub use query::{BatchError, BatchQueries, RayQueries};
 pub use scene::{InstanceDesc, Rigid, Scene, SceneError, SceneHit};
 pub use wide::{QuantizedWideTree, QuantizedWideTree8, WideTree, WideTree8};
 pub use zbt::{HybridOptions, HybridTree, ZbtOptions, ZeroByteTree};
+
+/// The README's examples, compiled and run as doc tests.
+#[cfg(doctest)]
+#[doc = include_str!("../README.md")]
+pub struct ReadmeDoctests;
