@@ -5,7 +5,7 @@ use raybatch::{AccelKind, BatchQueries, BuildOptions, Hit, Mesh, Ray, RayQueries
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mesh = Mesh::load_obj("data/stanford-bunny.obj")?; // or Mesh::new(vertices, triangles)?
-    // The library's pick for this mesh (see the table below); every kind answers the same.
+    // The library's pick for this mesh (`AccelKind::for_mesh`); every kind answers the same.
     let tree = AccelKind::for_mesh(&mesh).build(mesh, &BuildOptions::default())?;
 
     // One ray at a time.

@@ -175,11 +175,10 @@ impl StreamLayout {
     /// [`crate::BatchOptions::max_chunk`] says otherwise (a structure may choose its own,
     /// [`Accel::DEFAULT_MAX_CHUNK`]). Records are never moved, so the grids' and kd-tree's
     /// walks, one ray at a time in an order by origin, take chunks of 1,048,576 (the wide
-    /// trees' index lists walk faster in chunks of 64k, `wide::stream::CHUNK`). Lanes move whole rays at every
-    /// node, and their partitions run faster on chunks that stay nearer the caches: 131,072
-    /// (1M-ray chunks were slower: fandisk, 1M incoherent rays, one thread, closest hit
-    /// batched, best of 2 x 3 passes: binary tree 309 -> 372 ms, quantized 317 -> 378, hybrid
-    /// 311 -> 345, zero-byte tree 367 -> 380).
+    /// trees' index lists walk faster in chunks of 64k, `wide::stream::CHUNK`). Lanes move
+    /// whole rays at every node, and their partitions run faster on chunks that stay nearer the
+    /// caches: 131,072 (1M-ray chunks made the binary tree's batched closest hit about 20%
+    /// slower, docs/benchmarks.md).
     pub const fn default_max_chunk(self) -> usize {
         match self {
             StreamLayout::Lanes => 1 << 17,

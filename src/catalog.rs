@@ -41,8 +41,8 @@ pub trait KindTask {
 
 macro_rules! structures {
     ($($(#[$doc:meta])* $kind:ident($tree:ty) = $name:literal: $summary:literal;)+) => {
-        /// A kind of acceleration structure (every kind answers every query exactly alike; the
-        /// README's table says which to pick).
+        /// A kind of acceleration structure (every kind answers every query exactly alike;
+        /// [`AccelKind::for_mesh`] picks one, docs/benchmarks.md compares them).
         #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
         pub enum AccelKind {
             $($(#[$doc])* $kind,)+

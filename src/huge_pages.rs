@@ -8,11 +8,9 @@
 //! arrays a walk reads of a wide tree beyond the caches (`WideBvh::build`): its nodes, its
 //! leaf copy, its mesh's vertices and indices. Only there: merging pages is synchronous work
 //! (the kernel may compact memory to find huge pages), which smaller trees do not repay, and
-//! the advice stays on the address range. Measured on the
-//! 1M-triangle terrain (`bvh8`, one thread, 1M incoherent rays one at a time, best of 4 x 3
-//! passes alternated): 498.5 -> 459.6 ms; with every allocation on huge pages (the kernel's
-//! `enabled` set to `always`) 371.5 -> 349.9. Batches, which share nodes among rays, gain
-//! little (sightlines, any hit: 71.6 -> 69.9).
+//! the advice stays on the address range. On the 1M-triangle terrain (`bvh8`, one thread,
+//! incoherent rays one at a time) it saves about 8%; batches, which share nodes among rays,
+//! gain little (docs/benchmarks.md).
 //!
 //! [`advise`] is advice only: it never moves, frees or changes a value (the kernel copies the
 //! pages it merges, contents and addresses unchanged), so it cannot change an answer. It works

@@ -8,7 +8,7 @@ use crate::geom::Ray;
 use crate::mesh::Mesh;
 
 /// The unit tests' seeded generator: rand's `StdRng`, the generator the integration tests use
-/// too (`tests/common/rng.rs`), so every run draws the same numbers.
+/// too (`tests/suite/common/rng.rs`), so every run draws the same numbers.
 pub(crate) struct TestRng(StdRng);
 
 impl TestRng {

@@ -137,7 +137,7 @@ pub fn raybatch_engine(kind: AccelKind) -> String {
     format!("raybatch {}", kind.name())
 }
 
-/// Rays per call of the small-call rows: a game frame's line-of-sight work (issue 7).
+/// Rays per call of the small-call rows: a game frame's line-of-sight work.
 pub const FRAME_CALL: usize = 4096;
 
 /// The row name of raybatch's batched engine on `kind`: all rays in one call, or in calls of

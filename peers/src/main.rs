@@ -5,8 +5,8 @@
 //! `AccelKind::ALL`, per ray and batched (the default one also in calls of 4,096 rays). The
 //! hits are checked against raybatch's default structure (`AccelKind::DEFAULT`, `cast_ray`)
 //! and a Markdown table of build time, query time, Mrays/s and the speed relative to Embree's
-//! `rtcIntersect1` goes to stdout; progress goes to stderr. `--race R` times only the rows
-//! issue 7's targets name, taking turns (`raybatch_peers::race`).
+//! `rtcIntersect1` goes to stdout; progress goes to stderr. `--race R` times only the
+//! headline rows, taking turns (`raybatch_peers::race`).
 //!
 //! ```text
 //! bash peers/setup.sh && cargo run --release -p raybatch-peers -- --rays 1000000
@@ -37,8 +37,8 @@ usage: peers [--mesh FILE.obj | --scene NAME] [--rays N] [--sets A,B,..] [--seed
                    also camera, short); line-of-sight also times any-hit queries
   --seed S         ray seed (default 1)
   --runs R         timed passes per build and per query, best kept (default 3)
-  --race R         instead of the full table, the rows issue 7's targets name (Embree's one-ray
-                   calls, raybatch bvh4 / bvh8 / bvh8q per ray, batched and in calls of 4096),
+  --race R         instead of the full table, the headline rows (Embree's one-ray calls,
+                   raybatch bvh4 / bvh8 / bvh8q per ray, batched and in calls of 4096),
                    built once per ray set and timed in turn for R rounds (R at least the
                    rows' count lets each go first once), best pass kept: ratios that hold on
                    a machine whose speed drifts; --runs is not used";

@@ -1,11 +1,11 @@
-//! The race: the rows issue 7's targets name (Embree's one-ray calls, raybatch per ray,
-//! batched and in calls of 4,096, for the 4-wide, 8-wide and quantized 8-wide trees), built
-//! once per ray set and timed pass by pass in turn,
-//! round `r` starting with contender `r` (so `R` at least the number of rows lets each go
-//! first once), best pass kept. Each pass writes one answer per ray (hit or not, occluded or
-//! not) into a buffer made before the timing; the rows are checked against the first on those
-//! answers only (the full table compares distances and triangles too). (tinybvh stays in the full table only:
-//! its tree, built beside the others here, crashed in tinybvh-rs's ray setup.)
+//! The race: the headline rows (Embree's one-ray calls, raybatch per ray, batched and in calls
+//! of 4,096, for the 4-wide, 8-wide and quantized 8-wide trees), built once per ray set and
+//! timed pass by pass in turn, round `r` starting with contender `r` (so `R` at least the
+//! number of rows lets each go first once), best pass kept. Each pass writes one answer per
+//! ray (hit or not, occluded or not) into a buffer made before the timing; the rows are
+//! checked against the first on those answers only (the full table compares distances and
+//! triangles too). (tinybvh stays in the full table only: its tree, built beside the others
+//! here, crashes in tinybvh-rs's ray setup.)
 //!
 //! The full table times each library's passes back to back, so on a machine whose speed drifts
 //! (a shared VM: the same pass took 200 and 340 ms within an hour here) one library may get a

@@ -8,11 +8,9 @@
 //! chunks shrink as the batch runs out (guided scheduling): each is a share of the rays still
 //! waiting, so the threads start on large chunks and finish on small ones, and none sits idle
 //! while another works through a large last chunk. Threads take the chunks in order from one
-//! queue. Uniform chunks (about four per thread, as before) finished unevenly on camera rays,
-//! whose chunks cost more where the image shows the mesh: 1M camera rays, 2 threads against 1,
-//! best of 7, uniform and guided alternated in one process: fandisk 1.68x -> 1.87x (1.89x ->
-//! 2.04x in a second run), teapot 1.76x -> 1.78x, bunny 1.89x -> 2.05x; incoherent rays
-//! 1.79x -> 1.89x, 1.68x -> 1.72x, 1.95x -> 1.93x, 2.25x -> 2.29x.
+//! queue. Uniform chunks (about four per thread) finish unevenly on camera rays, whose chunks
+//! cost more where the image shows the mesh: on 1M camera rays the fandisk's two-thread
+//! speedup went from 1.68x with uniform chunks to 1.87x with guided ones (docs/benchmarks.md).
 
 use crossbeam::queue::ArrayQueue;
 

@@ -6,24 +6,20 @@
 //! more nodes than eight short ones. But a mixed stream meets each node's children in slot
 //! order, not nearest first, so a closest-hit ray may find far surfaces before its nearest
 //! one, each hit replacing the last. Street-level sightlines in the city pass many buildings
-//! (twenty-third session, `bvh4`, ratios to Embree): mixed, 0.74 in one call and 0.52 in calls
-//! of 4,096 rays; every octant apart, 1.93 and 1.21. Segments and rays from outside an object
-//! meet its near and far sides: in chunks of up to 16k rays they run 2-15% faster apart
-//! (fandisk and bunny, line of sight and outside-in rays), in chunks of 65,536 about as fast
-//! (line of sight) or slower (the bunny's outside-in rays). Incoherent rays from inside, short
-//! rays and camera rays run faster mixed.
+//! and run more than twice as fast with every octant apart (`bvh4`, docs/benchmarks.md).
+//! Segments and rays from outside an object meet its near and far sides and run a few percent
+//! faster apart in short chunks. Incoherent rays from inside, short rays and camera rays run
+//! faster mixed.
 //!
 //! The count that tells them apart costs one add per reported hit: the hits a chunk's walk
-//! reported per ray that has a hit. Walked mixed, the city's sightlines report 8.3-9.9, line
-//! of sight and outside-in rays on the meshes 1.52-1.60, every other set 1.0-1.94 (the city's
-//! incoherent rays the most); walked apart, 1.0-1.02 on the meshes, 1.22-1.41 in the city. So
-//! a chunk walks apart when the last chunk walked mixed reported more than
-//! [`MANY_REPORTED`] hits per hit, or, in chunks of at most [`SHORT_CHUNK`] rays, more than
-//! [`MIXING_EXCESS`] times what the last chunk walked apart reported (line of sight and
-//! outside-in 1.52-1.59x, incoherent 1.22-1.27x, the city's incoherent and short rays
-//! 1.02-1.13x). One chunk in every [`PROBE_EVERY`] + 1 walks the other way, to keep both
-//! counts fresh when the rays change (and the chunk after the first counted one, to have both
-//! early). Only the default ordering ([`super::BatchOrdering::ByOctant`]) asks.
+//! reported per ray that has a hit. Walked mixed, sightlines that pass many surfaces report
+//! several hits per hitting ray; walked apart, about one. So a chunk walks
+//! apart when the last chunk walked mixed reported more than [`MANY_REPORTED`] hits per hit,
+//! or, in chunks of at most [`SHORT_CHUNK`] rays, more than [`MIXING_EXCESS`] times what the
+//! last chunk walked apart reported. One chunk in every [`PROBE_EVERY`] + 1 walks the other
+//! way, to keep both counts fresh when the rays change (and the chunk after the first counted
+//! one, to have both early). Only the default ordering ([`super::BatchOrdering::ByOctant`])
+//! asks.
 //!
 //! The counts are per thread (in its workspace), shared by every structure and call on it: a
 //! thread that alternates sightlines and incoherent rays, or two trees, judges from their mix
@@ -32,22 +28,23 @@
 //! answer ever depends on them: both groupings give the same answers, bit for bit.
 
 /// Reported hits per hitting ray of a mixed chunk above which its rays pass many surfaces
-/// (between 1.94 and 8.3: every measured set's most and the city sightlines' least).
+/// (between 1.94 and 8.3: the most of every measured set but the city's sightlines, and
+/// those sightlines' least).
 const MANY_REPORTED: f32 = 3.0;
 
 /// How many times the apart count the mixed count must be for a short chunk to walk apart
-/// (between 1.27 and 1.52, see the module docs).
+/// (between 1.27, the most for incoherent rays, and 1.52, the least for line-of-sight and
+/// outside-in rays).
 const MIXING_EXCESS: f32 = 1.4;
 
 /// Chunks of at most this many rays are short: their mixed streams gain less from sharing
-/// nodes (calls of 4,096 / 8,192 / 16,384 / 32,768 rays, time mixed over apart: line of sight
-/// 1.10-1.15 / 1.08 / 1.05-1.08 / 1.04-1.06, outside-in 1.09-1.11 / 1.02-1.07 / 1.02-1.07 /
-/// 0.97-0.98; fandisk and bunny, `bvh4`, best of 2 x 3 passes).
+/// nodes (in calls of 32,768 rays, outside-in rays already run faster mixed;
+/// docs/benchmarks.md).
 const SHORT_CHUNK: usize = 16_384;
 
 /// Chunks between two walked against the judge's preference. A probe costs one chunk walked
-/// the slow way in `PROBE_EVERY + 1`: on the city's sightlines in calls of 4,096 rays (one
-/// chunk a call), about 1.21 -> 1.16 of Embree; on incoherent rays about 0.3%.
+/// the slow way in `PROBE_EVERY + 1`: about 4% on the city's sightlines in calls of 4,096 rays
+/// (one chunk a call).
 const PROBE_EVERY: u32 = 32;
 
 /// Fewer rays with a hit than this in a chunk say nothing: its count is not kept.

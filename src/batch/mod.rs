@@ -1,5 +1,5 @@
 //! The batched engine's machinery, shared by every structure: a whole array of rays is
-//! prepared once and handed to the structure as streams (seed 001).
+//! prepared once and handed to the structure as ray streams.
 //!
 //! - [`options`]: [`BatchOptions`] and [`BatchOrdering`].
 //! - `chunks`: large batches split into chunks over rayon's pool, one workspace per thread.

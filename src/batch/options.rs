@@ -22,13 +22,13 @@ pub enum BatchOrdering {
     /// ray walks the children of every node nearest first (the wide trees' mixed streams walk
     /// them in slot order). For closest-hit rays that pass many surfaces before the nearest,
     /// such as street-level sightlines in a city (2.3-2.6x the speed of mixed streams there,
-    /// the twenty-third session's README); rays that meet few surfaces (incoherent rays
-    /// inside an object, short rays) and any-hit queries are faster mixed. The same as
-    /// [`Self::ByOctant`] for the structures that do not mix octants.
+    /// docs/benchmarks.md); rays that meet few surfaces (incoherent rays inside an object,
+    /// short rays) and any-hit queries are faster mixed. The same as [`Self::ByOctant`] for the
+    /// structures that do not mix octants.
     SeparateOctants,
     /// Group by direction octant, and let the structures that mix small octants always mix
-    /// them, whatever the hits: [`Self::ByOctant`] without its choice (what it did before the
-    /// twenty-fourth session), for measuring the choice.
+    /// them, whatever the hits: [`Self::ByOctant`] without its choice, for measuring the
+    /// choice.
     MixedOctants,
     /// One group for all directions, children in fixed order.
     Unordered,
@@ -131,9 +131,8 @@ pub struct BatchOptions {
     /// subtree for them together instead, reading each node once for all of them (the packet
     /// walk of the binary trees that ask for it, `Bvh::PACKET_WALK`: the zero-byte and
     /// hybrid trees; on x86-64 CPUs with AVX2, elsewhere one ray at a time). `usize::MAX`
-    /// turns it off. The default, 2: on the bunny (100,000 incoherent rays, callgrind) the
-    /// zero-byte tree's batched instructions per ray went 3,821 -> 3,348 (from 3 or 4: 3,537
-    /// and 3,536 in an earlier build, within 0.3% of 2).
+    /// turns it off. The default, 2, cuts the zero-byte tree's batched instructions per ray by
+    /// about 12% on incoherent rays (3 or 4 do about as well; docs/benchmarks.md).
     pub packet_from: usize,
     /// Implementation of the box test over many rays ([`PartitionKernel::detect`] by
     /// default); one the CPU lacks is replaced by the portable one.

@@ -1,5 +1,5 @@
 //! The batch's active rays as an array of [`PreparedRay`]s: the stream layout of structures that
-//! walk rays by index ([`crate::accel::StreamLayout::Rays`]).
+//! walk rays by index ([`crate::accel::StreamLayout::Records`]).
 //!
 //! The lanes ([`super::lanes`]) pay for their structure-of-arrays form at every step of a
 //! binary tree's move-to-front partition; a structure that never partitions (the 4-wide tree

@@ -39,7 +39,7 @@ pub const MAX_LEAF_SIZE: u32 = 16;
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct BuildOptions {
     /// Leaves hold at most this many triangles (1 to [`MAX_LEAF_SIZE`]). The SAH may stop
-    /// earlier. 1 gives the classic one-triangle-per-leaf tree of the seeds.
+    /// earlier. 1 gives the classic one-triangle-per-leaf tree.
     pub max_leaf_size: u32,
     /// How each internal node orders its children for traversal.
     pub ordering: ChildOrdering,

@@ -114,13 +114,11 @@ impl Slots {
 /// word, then its id, so that the read that starts a triangle's chain brings its id too. 12
 /// bytes a slot (`packed(4)`: 4-byte alignment, fields only ever read by value).
 ///
-/// Measured (1M incoherent rays, one thread, best of 5 alternated runs of 3 passes; bunny and
-/// city, `bvh4` and `bvh8` per ray): 0.96-1.00x the time of the 16-byte slot it replaced
-/// (indices whole, id beside them), 1.4% more instructions (bunny `bvh4`, callgrind), 4 bytes
-/// a triangle less: `bvh8` on the city 39.6 -> 35.6 B/tri, under the full binary tree's 38.5.
-/// Keeping the 16-byte slot for meshes whose indices do not pack, as a fourth kind of copy,
-/// cost 5% more instructions on every mesh (the match on the copy in each triangle read), so
-/// those meshes (more than 2^21 vertices) read their triangles through the mesh instead.
+/// Against a 16-byte slot (indices whole, id beside them) it saves 4 bytes a triangle at no
+/// cost in time (docs/benchmarks.md). Meshes whose indices do not pack (more than 2^21
+/// vertices) read their triangles through the mesh: a 16-byte slot for them, as a fourth
+/// kind of copy, cost 5% more instructions on every mesh (the match on the copy in each
+/// triangle read).
 #[derive(Clone, Copy, Debug)]
 #[repr(C, packed(4))]
 struct PackedSlot {

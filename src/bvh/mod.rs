@@ -14,7 +14,7 @@
 //! tests a node's triangles, then descends.
 //!
 //! - [`build`]: binned SAH build shared by every node format.
-//! - [`ordering`]: the child-order byte per node (PNS, seed 000).
+//! - [`ordering`]: the child-order byte per node (precomputed node sorting).
 //! - [`nodes`]: the node formats (full 32-byte, quantized 16-byte).
 //! - `leaves`: the leaf triangles in slot order, shared by every tree the builder makes.
 //! - [`tree`]: [`AabbTree`], a mesh plus a node array in one of the formats.

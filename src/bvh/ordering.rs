@@ -1,4 +1,4 @@
-//! Precomputed node sorting (PNS, seed 000): the child visit order for every ray octant, in one
+//! Precomputed node sorting (PNS): the child visit order for every ray octant, in one
 //! byte per internal node.
 //!
 //! Visiting the nearer child first lets a closest-hit query shrink its ray early and skip the
@@ -12,7 +12,7 @@
 //! - [`ChildOrdering::SplitAxis`]: compare the children's centres along the build's split axis
 //!   only, by the sign of the ray direction on that axis (the classic kd-tree order).
 //! - [`ChildOrdering::Pns`]: project the children's centres on each octant's diagonal
-//!   `(+-1, +-1, +-1)` and put the nearer one first (the seed's scheme).
+//!   `(+-1, +-1, +-1)` and put the nearer one first (precomputed node sorting proper).
 //!
 //! The ordering only changes speed, never results: closest-hit answers follow the tie rule, so
 //! they do not depend on the visiting order.

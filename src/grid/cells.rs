@@ -1,6 +1,6 @@
 //! The grid's compact storage: an occupancy bit per cell, and for the cells that hold
 //! triangles (the *stored* cells) a coarse cull box (`super::cull`, 30 bits) and a start into
-//! one array of triangle references; no per-cell containers (the seed's "array of cells",
+//! one array of triangle references; no per-cell containers (the classic array of cells,
 //! minus the per-cell allocations) and nothing for an empty cell but its bit and a share of
 //! the running counts (1.5 bits in all).
 //!
@@ -11,13 +11,13 @@
 //!
 //! **Why stored cells by rank.** A stored cell's cull box and start are found by its rank
 //! among the stored cells: the running count of stored cells before its 64-cell occupancy
-//! word plus the set bits below it in that word, both in cache beside the bits. A start per cell, empty or not
-//! (the previous layout), took 8 MB on the 1M-triangle terrain, whose loads missed the cache
-//! before the cell's words did. Measured (README, "Spatial subdivision"): 23% less memory on
-//! the terrain, 9x less on the sparse world, the same speed on the terrain; a 32-byte record
-//! per stored cell (exact cull box and reference range, the references elsewhere) ran no
-//! faster on short rays and cost the cells a ray tests a second miss; 4 bytes of coarse cull
-//! box per stored cell, by rank, did pay (`super::cull`).
+//! word plus the set bits below it in that word, both in cache beside the bits. A start per
+//! cell, empty or not, takes 8 MB on the 1M-triangle terrain, whose loads miss the cache
+//! before the cell's words do; by rank the terrain's grid takes 23% less memory at the same
+//! speed (docs/benchmarks.md). A 32-byte record per stored cell (exact cull box and reference
+//! range, the references elsewhere) runs no faster on short rays and costs the cells a ray
+//! tests a second miss; 4 bytes of coarse cull box per stored cell, by rank, do pay
+//! (`super::cull`).
 
 use glam::{Vec3, Vec3A};
 

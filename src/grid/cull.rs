@@ -15,11 +15,10 @@
 //! steps of a thirty-first of a cell from the cell's own planes, five bits a face, 30 bits a
 //! cell, in an array of its own by rank ([`coarse_cull`]). A ray reads 4 bytes per stored cell
 //! it crosses, from an array of nothing else, and reaches for the references only when the
-//! box lets it through. Measured on the 1M-triangle terrain (README, "Spatial subdivision",
-//! ninth session): the exact box in front of the references took a miss for every stored cell
-//! a ray crossed (about half the walk's samples); with the coarse box the grid's short rays
-//! went from 0.73x the AABB tree's speed to 0.80-0.95x, at 15.5 B/tri instead of 21.7, and it
-//! lets through 14% more cells than the exact one would.
+//! box lets it through. The exact box in front of the references takes a miss for every
+//! stored cell a ray crosses (about half the walk's samples on the 1M-triangle terrain); with
+//! the coarse box the grid's short rays there run at 0.80-0.95x the AABB tree's speed instead
+//! of 0.73x (docs/benchmarks.md).
 //!
 //! **Why no hit is lost.** The kernels report a hit on a triangle at `t >= t*`, where `t*` is
 //! the triangle box's entry distance and every axis of that box is active at `t*`; the walk

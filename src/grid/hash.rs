@@ -1,5 +1,5 @@
 //! [`SpatialHash`]: the uniform grid's cells and walk, with only the non-empty cells stored,
-//! in a hash table (seed 004's spatial hash).
+//! in a hash table (a spatial hash).
 //!
 //! A dense grid pays 4 bytes (an offset) for every cell, empty or not, which limits how fine
 //! it can be over a large, mostly empty world. The hash stores a 16-byte slot per *non-empty*

@@ -1,6 +1,6 @@
 //! Mailboxing: a triangle stored in several cells is tested at most once per ray.
 //!
-//! The seed's "time stamping" keeps one stamp per triangle (the number of the ray that last
+//! Classic "time stamping" keeps one stamp per triangle (the number of the ray that last
 //! tested it); measured on the 1M-triangle terrain, those stamps (4 MB per thread) cost a
 //! cache miss per test. A ray tests few triangles, so this mailbox keeps only *those*: a small
 //! open-addressing set of `(ray number, triangle)` slots, in L1. A slot whose ray number is not

@@ -1,4 +1,4 @@
-//! Spatial subdivision by cells (seed 004): the uniform grid walked along the ray with a
+//! Spatial subdivision by cells: the uniform grid walked along the ray with a
 //! 3D-DDA, and the spatial hash that walks the same cells without storing the empty ones.
 //!
 //! Unlike the BVHs, which split the triangles, these split space: a triangle is stored in

@@ -1,6 +1,6 @@
 //! How many cells a grid gets along each axis.
 //!
-//! The seed's rule of thumb, "cell size about the largest object", fails when object sizes
+//! The common rule of thumb, "cell size about the largest object", fails when object sizes
 //! vary (one large ground quad would make one cell). The classic count rule (Cleary and Wyvill;
 //! Ize et al.) is used instead: about `cells_per_triangle * N` cells in all. Their shape comes
 //! from the triangles (`cell_shape`): cube cells for a surface facing every way (a statue),
@@ -16,7 +16,7 @@
 //! `c_a` proportional to `w_a` (minimise `sum w_a / c_a` at a fixed `c_x c_y c_z`). Long cells
 //! cost steps for rays across them, so the shape is a compromise: `c_a` proportional to
 //! `w_a^SHAPE_EXPONENT`, at most [`MAX_ASPECT`] times longer than wide (measured on the
-//! terrain, bunny, city and sparse world: see the README).
+//! terrain, bunny, city and sparse world: docs/benchmarks.md).
 
 use crate::bvh::BuildError;
 use crate::geom::Aabb;
@@ -33,7 +33,7 @@ pub const MAX_ASPECT: f64 = 8.0;
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct GridOptions {
     /// Target number of cells per triangle (the grid's density). Measured on the bunny, the
-    /// terrain and the city (see the README): 2 is near the best for closest hits.
+    /// terrain and the city (docs/benchmarks.md): 2 is near the best for closest hits.
     pub cells_per_triangle: f32,
     /// Largest number of cells (1.5 bits each, empty or not, plus the stored cells' cull boxes
     /// and triangle references).

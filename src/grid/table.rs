@@ -1,6 +1,6 @@
-//! The spatial hash's table: non-empty cells only, found by the seed's multiplicative hash of
-//! the cell indices, collisions resolved by linear probing (closed hashing, as the seed's
-//! cache notes advise: no linked lists, one 16-byte slot per cell, slots contiguous).
+//! The spatial hash's table: non-empty cells only, found by a multiplicative hash of the cell
+//! indices, collisions resolved by linear probing (closed hashing, which suits the caches: no
+//! linked lists, one 16-byte slot per cell, slots contiguous).
 //!
 //! The table is at most half full, so a lookup of an empty cell (the common case in a sparse
 //! world) ends at the first free slot after a probe or two; a cell's slot gives the range of
@@ -41,8 +41,8 @@ impl CellTable {
         }
     }
 
-    /// The home slot of `key`, a linear cell index `x + nx * (y + ny * z)`: the seed's
-    /// multiplicative hash, with the products folded so that the high bits count.
+    /// The home slot of `key`, a linear cell index `x + nx * (y + ny * z)`: a multiplicative
+    /// hash, with the products folded so that the high bits count.
     #[inline(always)]
     fn home(&self, key: u64) -> usize {
         let h = key.wrapping_mul(0x9E37_79B9_7F4A_7C15);

@@ -20,9 +20,9 @@ use crate::traverse::origin_order;
 /// The one-ray walk tests a stored cell this many stored cells after meeting it, and
 /// prefetches its cull box when it meets it: a short ray on the 1M-triangle terrain meets
 /// about four stored cells, each cull box a likely cache miss (the walk's largest stall,
-/// `perf`), and taken one after the other they could not overlap. Measured (`grid_tuning --
-/// race terrain 200000`, two paired runs, the grid per ray against the AABB tree per ray):
-/// short rays 0.87 -> 0.93-0.94 with 4, 0.88-0.92 with 8.
+/// `perf`), and taken one after the other they could not overlap. With 4, the grid's short
+/// rays on the terrain went from 0.87x the AABB tree's speed per ray to about 0.93x (8 did no
+/// better; docs/benchmarks.md).
 ///
 /// Exact: the walk runs ahead with the range end of the last test, never shorter than the
 /// current one, so it meets every cell the plain walk would (and a few more); each cell is

@@ -1,10 +1,10 @@
-//! The 3D-DDA walk (seed 004's `t_exit` / `delta t` stepping), made exact: it visits every
+//! The 3D-DDA walk (the classic `t_exit` / `delta t` stepping), made exact: it visits every
 //! cell the conservative box test would let a hit through, in order of entry distance.
 //!
 //! **Per axis.** Along one axis the ray crosses slabs `[p_i, p_(i+1)]` (the stored planes of
 //! [`Planes`]). Slab `i` is *active* from its entry distance `enter = (near plane - o) * inv`
 //! to its exit distance `leave = (far plane - o) * inv * EXIT_SCALE`: the very formulas, in the
-//! same order and rounding, of the slab test in [`crate::geom::aabb`]. The seed's walk steps
+//! same order and rounding, of the slab test in [`crate::geom::aabb`]. The classic walk steps
 //! from one slab to the next at one `t_exit`; this one keeps a *range* of active slabs, which
 //! is one slab except within a few ulps of a plane, where the next slab has been entered
 //! (`enter`, unscaled) and the previous one not yet left (`leave`, scaled up). A cell is

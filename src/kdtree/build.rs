@@ -4,7 +4,7 @@
 //! Each node bins its triangles' boxes along every axis ([`BINS`] bins over the node's box)
 //! and prices each bin boundary with the surface area heuristic: `cost = TRAVERSAL + area(below)
 //! / area(node) * count(below) + area(above) / area(node) * count(above)`, against `count` for
-//! a leaf (Wald and Havran 2006, binned; the seed's cost formula). Cutting off empty space
+//! a leaf (Wald and Havran 2006, binned). Cutting off empty space
 //! costs nothing in triangles, so the SAH isolates clusters and leaves empty leaves behind.
 //!
 //! **The side rule** (what the traversal's exactness rests on, see `super::traverse`): a

@@ -1,4 +1,4 @@
-//! The kd-tree (seed 004): an axis-aligned BSP tree whose planes cut space, not the triangle
+//! The kd-tree: an axis-aligned BSP tree whose planes cut space, not the triangle
 //! list. Built with the SAH, it isolates clusters and cuts away empty space; a ray walks it
 //! front to back and stops as soon as the nearest pending node lies behind the best hit.
 //!

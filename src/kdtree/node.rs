@@ -1,4 +1,4 @@
-//! The kd-tree's 8-byte node (after Ericson's compact node in seed 004, widened to two words
+//! The kd-tree's 8-byte node (after Ericson's compact node, widened to two words
 //! so that a split keeps its full `f32` and a leaf its full triangle range).
 //!
 //! - interior: word 0 is the split position's bits, word 1 is `above << 2 | axis` (axis 0..=2);

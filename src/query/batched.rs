@@ -117,8 +117,8 @@ enum Query {
     /// The order in which a ray meets surfaces decides how many hits its walk reports, and
     /// the walk counts them.
     Closest,
-    /// Any hit (faster mixed on every set measured, the twenty-third session's table) and all
-    /// hits (every hit is reported whatever the order): always the default grouping.
+    /// Any hit (faster mixed on every set measured, docs/benchmarks.md) and all hits (every
+    /// hit is reported whatever the order): always the default grouping.
     Other,
 }
 

@@ -7,7 +7,7 @@
 //! - `dispatch`: the one-ray loop through it;
 //! - `stack`: the one-ray loop's stack, the thread's `Vec` or a fixed array on the call stack
 //!   (with the traversals' other `unsafe`, one read of a slot it wrote);
-//! - `stream`: a stream of rays going down the tree once, partitioned at each node (seed 001).
+//! - `stream`: a stream of rays going down the tree once, partitioned at each node.
 //!
 //! Beside them, `origin_order`: the stream engine of the structures that walk each ray alone
 //! (grids, kd-tree), a stream's rays taken one at a time in Morton order of their origins.

@@ -8,17 +8,13 @@
 //! next ones read. The walk itself is the one-ray walk, so the answers are the per-ray answers
 //! (a ray's answer does not depend on the order rays are taken in).
 //!
-//! Measured on the 1M-triangle terrain (`cargo run --release -p raybatch-tools --example
-//! origin_order`, 200,000 rays per set, one thread, closest hit, Mrays/s one at a time in the
-//! caller's order -> batched in origin order): grid incoherent 0.52 -> 0.65, short 1.25 ->
-//! 1.68, line of sight 0.11 -> 0.17; kd-tree 0.60 -> 0.66, 1.28 -> 1.41, 0.21 -> 0.30; camera
-//! rays (one origin: nothing to gain) 0.92-0.99x. The sort costs a few percent of a walk.
+//! On the 1M-triangle terrain the grid's short rays run about 1.3x as fast in origin order as
+//! in the caller's order (docs/benchmarks.md); camera rays, which share one origin, have
+//! nothing to gain. The sort costs a few percent of a walk.
 //!
 //! Taken in that order, the rays' own records are read out of order: a profile of the grid's
 //! batched short rays (`perf record`) put a fifth of the time on loading them, so the record of
-//! the ray [`PREFETCH_AHEAD`] places on is prefetched. Same example, sixteenth session, per ray
-//! -> batched without / with the prefetch: grid short 1.04x / 1.17x, incoherent 1.19x with it,
-//! kd-tree short 1.42x / 1.75x.
+//! the ray [`PREFETCH_AHEAD`] places on is prefetched.
 
 use crate::accel::{Accel, Footprint, RayStream};
 use crate::geom::{Aabb, PreparedRay, TriangleTest};

@@ -2,7 +2,7 @@
 //! packet walk, on x86-64 CPUs with AVX2.
 //!
 //! Below `BatchOptions::single_ray_below` rays the stream's partitions cost more than they
-//! share, and the one-ray loop used to finish each ray alone, reading every node of the subtree
+//! share, and the one-ray loop would finish each ray alone, reading every node of the subtree
 //! again for each of them: its triangles (tested by the scalar kernel) and, for the zero-byte
 //! tree, its children's boxes (recomputed from triangles, or looked up in the box cache). The
 //! packet walk reads each node once for all of the rays, held in eight lanes with a bit mask of

@@ -1,4 +1,4 @@
-//! A stream of rays down the tree, once (seed 001).
+//! A stream of rays down the tree, once.
 //!
 //! An explicit stack holds `(node, count, box)`: rays `0..count` of the stream are the ones that
 //! reached the node's parent, and the box was read (or dequantized, or recomputed) once, at the

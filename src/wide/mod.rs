@@ -116,7 +116,7 @@ pub type QuantizedWideTree8 = WideBvh<QuantizedWideNode8>;
 /// The 8-wide tree, the crate's default structure: about a third fewer node visits than the
 /// 4-wide one per ray; its batches use the same stream engine as the 4-wide tree's (nodes
 /// shared; side by side for short incoherent streams on large trees), at 0.87-1.04x its
-/// speed (more box tests per ray; 0.97-1.15x in calls of 4,096 rays).
+/// speed (more box tests per ray; docs/benchmarks.md).
 pub type WideTree8 = WideBvh<WideNode8>;
 
 impl<N: NodeKind> WideBvh<N> {
@@ -272,12 +272,10 @@ fn smallest_working_set(mesh: &Mesh) -> usize {
 const QUANTIZED_TREE_BYTES_PER_TRIANGLE: usize = 13;
 
 /// Above this many bytes (smallest tree and mesh) a tree takes its layout's leaf copy for large
-/// trees ([`NodeKind`]'s `LEAF_COPY_LARGE`: leaf blocks for the quantized 8-wide tree). Below it the tree mostly stays in cache and
-/// memory is the quantized trees' point. Measured on the quantized 8-wide tree (one thread, 1M incoherent rays per ray, alternated, best of 3, ms,
-/// no copy / index copy / blocks): bunny (2.1 MB) 171.9 / 161.7 / 163.0; a bunny subdivided
-/// once (278k triangles, 8.6 MB) 325.6 / 274.4 / 278.9; a 500k-triangle heightfield (15.5 MB)
-/// 444.3 / 358.8 / 330.4, where calls of 4,096 rays took 249-361 ms without a copy and
-/// 187-190 with blocks.
+/// trees ([`NodeKind`]'s `LEAF_COPY_LARGE`: leaf blocks for the quantized 8-wide tree). Below
+/// it the tree mostly stays in cache and memory is the quantized trees' point. Above it the
+/// copy pays: on a 500k-triangle heightfield (15.5 MB) leaf blocks take about a quarter off the
+/// quantized 8-wide tree's time per ray (docs/benchmarks.md).
 const LARGE_TREE_BYTES: usize = 8 << 20;
 
 /// The most bytes a triangle a tree's nodes and leaf blocks may take when the blocks are the
@@ -346,8 +344,7 @@ impl<N: NodeKind> Accel for WideBvh<N> {
     /// (over 16 MiB with its mesh), else 65,536 (`stream::CHUNK`). A batch with a dense octant
     /// (`batch::group::has_dense_octant`: a camera's rays) keeps 65,536: its rays share nodes
     /// well enough in such chunks, and a longer chunk costs them more in records out of the
-    /// caches than it saves (terrain, `bvh8`, 1M camera rays in one call, one thread, best of
-    /// 4 x 3 passes: 62.9 ms in chunks of 65,536, 72.0 in chunks of 1M).
+    /// caches than it saves (about 14% slower in chunks of 1M on the terrain's camera rays).
     fn max_chunk(&self, rays: &[Ray]) -> usize {
         if self.beyond_caches && !has_dense_octant(rays) {
             LARGE_TREE_CHUNK
@@ -402,57 +399,38 @@ impl<N: NodeKind> Accel for WideBvh<N> {
 
 /// [`Interleave::Auto`] interleaves rays above this many bytes of nodes, leaf order and mesh.
 /// Below it the tree mostly stays in cache and sharing nodes does less work; above it each
-/// ray waits on memory at most nodes, and walking rays side by side hides the wait. Measured
-/// since the split tests eight rays at a time (one thread, incoherent rays, best of 4, nodes
-/// shared vs side by side, `cargo run --release -p raybatch-tools --example interleave -- SCENE
-/// RAYS`, ms): bunny (4.0 MB) 49 vs 49 on 200k rays, 183 vs 243 on 1M; city (4.9 MB) 34 vs
-/// 52 and 171 vs 259; terrain (54 MB) 119 vs 65 and 492 vs 371. The crossover lies between 5
-/// and 54 MB; 16 MiB is the geometric middle (it was 1 MiB when the split tested one ray at a
-/// time).
+/// ray waits on memory at most nodes, and walking rays side by side hides the wait. On
+/// incoherent rays side by side is slower on the bunny and the city (4-5 MB) and faster on
+/// the terrain (54 MB); 16 MiB is about the geometric middle (docs/benchmarks.md).
 const INTERLEAVE_ABOVE_BYTES: usize = 16 << 20;
 
 /// Streams shorter than this share few node fetches, so [`Interleave::Auto`] interleaves them
-/// from the smaller working set [`SHORT_INTERLEAVE_ABOVE_BYTES`] on. (Measured when a call of
-/// 4,096 incoherent rays made eight octant streams of about 512; it now makes one stream of
-/// 4,096 ([`stream::CHUNK`]). Streams this short are now a scene's octant streams, an octant
-/// kept apart in a small call, and the last chunks of a batch split over threads.) Measured on an Intel Xeon (2 MiB of L2 per core),
-/// one thread, 1M incoherent rays in calls of N rays, side by side vs nodes shared, best of
-/// 2 x 3 passes (`raybatch query --batched --batch-size N --interleave always|never`, ms):
-/// bunny (3.9 MB) N = 4,096: 172 vs 205 (line-of-sight any hit 82 vs 93), 16,384: 176 vs 183,
-/// 65,536: 175 vs 150; fandisk (0.8 MB) 4,096: 162 vs 122; teapot (0.4 MB) 172 vs 114.
+/// from the smaller working set [`SHORT_INTERLEAVE_ABOVE_BYTES`] on. Streams this short are a
+/// scene's octant streams, an octant kept apart in a small call, and the last chunks of a
+/// batch split over threads (a call of 4,096 incoherent rays makes one stream,
+/// [`stream::CHUNK`]). The measurements are in docs/benchmarks.md.
 const SHORT_STREAM_RAYS: usize = 2048;
-/// See [`SHORT_STREAM_RAYS`]. Raised from 2 MiB when the collapse began to merge small
-/// subtrees into larger leaves (`collapse`): the trees shrank (bunny 3.9 -> 2.3 MB with its
-/// mesh, city 4.7 -> 2.8) and each one-ray step of the side-by-side engine tests more
-/// triangles, so sharing nodes became the faster engine for them. Measured on an AMD EPYC (1
-/// MiB of L2 per core), one thread, 1M rays in calls of 4,096, every variant alternated in one
-/// process, best of 3-4, side by side vs nodes shared, ms: bunny closest hit 210.3 vs 179.8,
-/// line-of-sight any hit 91.1 vs 82.8; city 256.6 vs 204.0 and 262.5 vs 250.5; terrain (33 MB)
-/// 311.5 vs 804.8.
+/// See [`SHORT_STREAM_RAYS`]. With the collapse's merged leaves (`collapse`) each one-ray step
+/// of the side-by-side engine tests more triangles, and below this size (the bunny and the
+/// city take under 3 MB with their meshes) sharing nodes is the faster engine even in calls of
+/// 4,096 rays, about 15% on the bunny's closest hits; on the terrain (33 MB) side by side
+/// runs 2.6 times as fast (docs/benchmarks.md).
 const SHORT_INTERLEAVE_ABOVE_BYTES: usize = 8 << 20;
 
 /// A stream at least this long shares nodes on any tree, whatever its rays' directions: enough
 /// rays reach each node that one fetch of it serves many of them, where side by side each ray
 /// waits on its own fetch. Halved for visitors that end rays ([`Visitor::ENDS_RAYS`]: any
-/// hit), whose streams thin out as rays are occluded and gain more from sharing. Measured on
-/// the 1M-triangle terrain (`bvh8`, 56 MB with its mesh; one thread, 1M rays of the
-/// `--scene terrain` sets in calls of N rays (one chunk each), best of 3 passes, side by side
-/// against nodes shared, ms): incoherent closest hit N = 65,536: 196 vs 247, one call in
-/// chunks of 131,072: 173 shared; sightlines any hit N = 16,384: 373 vs 518, 32,768: 373 vs
-/// 360, 65,536: 385 vs 270; sightlines closest hit N = 65,536: 400 vs 450.
+/// hit), whose streams thin out as rays are occluded and gain more from sharing. On the
+/// 1M-triangle terrain sightlines (any hit) share nodes faster from streams of about 32,768
+/// rays on, incoherent closest-hit rays only beyond 65,536 (docs/benchmarks.md).
 const DENSE_STREAM_RAYS: usize = 1 << 17;
 
 /// The chunk of a tree beyond the caches (working set above [`INTERLEAVE_ABOVE_BYTES`]),
 /// instead of [`stream::CHUNK`]: on such a tree every node fetch is a trip to memory, and a
 /// longer chunk shares each one among more rays (its streams are long enough to share nodes,
-/// [`DENSE_STREAM_RAYS`]), which pays for the records falling out of the caches. Measured on
-/// the terrain (`bvh8`, one thread, 1M rays in one call, best of 2 x 2 passes, ms; the
-/// automatic choice before this, side by side in chunks of 65,536, then nodes shared in
-/// chunks of 65,536 / 131,072 / 262,144 / 524,288 / 1,048,576): `--scene terrain`
-/// incoherent closest hit 196, 247 / 173 / 163 / 155 / 154; sightlines any hit 383, 281 / 233
-/// / 226 / 208 / 209; sightlines closest hit 399, 471 / 396 / 384 / 391 / 262; rays aimed at
-/// the terrain as one object (`raybatch rays`), incoherent closest 188, 233 / 165 / 144 / 149
-/// / 149; line of sight any hit 68, 147 / 121 / 87 / 55 / 41. A chunk takes some 90 bytes a
+/// [`DENSE_STREAM_RAYS`]), which pays for the records falling out of the caches: on the
+/// terrain (`bvh8`) incoherent closest-hit rays take about a fifth less time in chunks of 1M
+/// than side by side in chunks of 65,536 (docs/benchmarks.md). A chunk takes some 90 bytes a
 /// ray: 90 MB for a thread's chunk of 1M rays.
 const LARGE_TREE_CHUNK: usize = 1 << 20;
 
@@ -469,9 +447,8 @@ struct StreamShape {
 /// A stream of one octant at least this long shares nodes on trees beyond the caches even when
 /// its octant is not dense (the `SeparateOctants` ordering, or closest-hit chunks that the
 /// thread's mixing choice keeps apart): each node's children come nearest first for all its
-/// rays, so a closest-hit stream drops far children early. Terrain sightlines, closest hit,
-/// `--ordering separate-octants`, one call of 1M rays (octant streams of some 125k rays), in
-/// one race each: shared 246.0 ms, side by side 352.0 (incoherent rays: 218.6 and 224.5).
+/// rays, so a closest-hit stream drops far children early: the terrain's sightlines (closest
+/// hit, octants apart) take about 30% less time sharing nodes (docs/benchmarks.md).
 const SHARED_OCTANT_RAYS: usize = 4_096;
 
 /// [`Interleave::Auto`]'s choice for a tree whose walks read `working_set` bytes and a
@@ -479,15 +456,9 @@ const SHARED_OCTANT_RAYS: usize = 4_096;
 /// side.
 ///
 /// A dense octant's rays are coherent (a camera's) and take much the same paths: they share
-/// nodes even on trees beyond the caches, however short the stream. Measured on the
-/// 1M-triangle terrain (`bvh8`, 56 MB with its mesh; one thread, 1M camera rays, best of 2 x 2
-/// passes, ms): in one call side by side 88.9, nodes shared 51.1; in calls of 4,096 rays 90.6
-/// against 57.7; in calls of 1,024 95.1 against 95.1; one ray at a time 89.7-94.3; on the
-/// bunny subdivided to 1.1M triangles (`raybatch rays --set camera`, best of 3 passes), calls of
-/// 4,096: 147.4 side by side, 76.5 shared, 138.5 one ray at a time. (Until the groups said
-/// which octants are dense, only octant streams of at least [`SHARED_OCTANT_RAYS`] shared
-/// nodes there: a camera's octants in calls of 4,096 were shorter, and walked side by side
-/// ran slower than one ray at a time.)
+/// nodes even on trees beyond the caches, however short the stream. On the 1M-triangle
+/// terrain (`bvh8`) a camera's rays take about 40% less time sharing nodes than side by side,
+/// in one call or in calls of 4,096 rays (docs/benchmarks.md).
 fn interleaves(working_set: usize, stream: StreamShape, ends_rays: bool) -> bool {
     let rays = stream.rays;
     let shares_paths = stream.dense_octant || (stream.one_octant && rays >= SHARED_OCTANT_RAYS);

@@ -12,7 +12,7 @@
 //! 121 bytes, aligned to 128 (two cache lines). An unused slot has an empty box
 //! (`min = +inf`, `max = -inf`), which no ray enters, so the box test needs no slot count.
 //!
-//! The order bytes are precomputed node sorting (seed 000) for four children: for each
+//! The order bytes are precomputed node sorting for four children: for each
 //! direction octant, the children sorted by the projection of their centres on the octant's
 //! diagonal. Both the stream engine and the one-ray loop read them to walk nearer children
 //! first (`single` says why the loop does not sort by entry distance).

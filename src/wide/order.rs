@@ -1,5 +1,5 @@
 //! A wide node's slots as built from its children: their child words and, per direction
-//! octant, the order a walk pushes them in (precomputed node sorting, seed 000), which every
+//! octant, the order a walk pushes them in (precomputed node sorting), which every
 //! layout stores and the walks read back with [`order_slots`].
 
 use glam::Vec3;
@@ -40,8 +40,7 @@ pub(crate) const fn slot_order(width: usize) -> u32 {
 /// `0..children.len()` hold `children`: the used slots sorted by the projection of their boxes'
 /// centres on the octant's diagonal (ties by slot), then the unused ones, position `k` in bits
 /// `k * b..(k + 1) * b` for `b = log2(width)` (read back by [`order_slots`]). A walk pushes the
-/// slots in this order (precomputed node sorting, seed 000), so every position names each slot
-/// once.
+/// slots in this order (precomputed node sorting), so every position names each slot once.
 pub(crate) fn octant_orders(children: &[(Aabb, u32)], width: usize) -> [u32; 8] {
     debug_assert!(width.is_power_of_two() && children.len() <= width);
     let centres: Vec<Vec3> = children.iter().map(|(bounds, _)| bounds.center()).collect();

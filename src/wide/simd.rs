@@ -251,10 +251,8 @@ unsafe fn stream_masks_avx2<const MIXED: bool>(
 
 /// How many groups of eight ahead the split prefetches its rays. The rays of a list are
 /// scattered over the walk's records (64 MiB for a walk of 1M rays), so each group's loads
-/// would miss the caches one after another; prefetched 64 rays ahead they overlap (bunny, 1M
-/// incoherent rays, one thread, closest hit batched, best of 5 alternated in one process: no
-/// prefetch / 4 / 8 / 16 groups ahead 144.6 / 131.3 / 128.4 / 132.2 ms; fandisk line of sight,
-/// any hit: 35.0 / 33.4 / 33.0 / 33.6 ms).
+/// would miss the caches one after another; prefetched 64 rays ahead they overlap (about 11%
+/// faster on the bunny's incoherent rays, batched; 4 or 16 groups ahead do a little worse).
 const PREFETCH_GROUPS: usize = 8;
 
 /// Prefetches the rays of group `g` of `ids`, if there is such a group.

@@ -1,13 +1,11 @@
 //! The one-ray loop over the wide trees: test the child boxes of a node at once, push the
-//! children hit in the node's precomputed order for the ray's octant (precomputed node sorting,
-//! seed 000), nearest on top, and go on with the top entry in front of the best hit.
+//! children hit in the node's precomputed order for the ray's octant (precomputed node
+//! sorting), nearest on top, and go on with the top entry in front of the best hit.
 //!
-//! Sorting the hit children by their entry distances instead takes fewer node visits (1,353
-//! against 1,550 instructions per incoherent bunny ray, callgrind) but its data-dependent
-//! branches mispredict; the precomputed order pushes without a branch and ran as fast or
-//! faster on the clock (bunny, 200k rays, best of 4 passes: 160-210 against 172-224 ms;
-//! teapot: the same). A compare-exchange network on the distances (branch-free, 1,855
-//! instructions) was no better.
+//! Sorting the hit children by their entry distances instead takes fewer node visits but its
+//! data-dependent branches mispredict; the precomputed order pushes without a branch and runs
+//! as fast or faster on the clock (docs/benchmarks.md). A compare-exchange network on the
+//! distances (branch-free, but more instructions) is no better.
 //! Entry distances are kept on the stack: a pop whose entry lies behind the best hit is dropped
 //! without reading anything (`<=`, for the tie rule of [`crate::hit`]).
 
@@ -35,9 +33,8 @@ pub(crate) fn trace<N: NodeKind, K: TriangleTest, V: Visitor, const PREFETCH: bo
     // No root box test first (unless the visitor counts nodes): the root node's test turns
     // away the same rays, since its child boxes lie inside the root box and every rounding
     // step of the slab test is monotone in the planes (and a root that is a leaf holds only
-    // triangles whose hits the box test never misses). Skipping it took 4.5% of a `bvh8` ray's
-    // instructions off (callgrind, 100k incoherent rays, fandisk and bunny) and 0.83-0.96x
-    // the time (alternated, best of 7 x 3 passes, fandisk, teapot, bunny).
+    // triangles whose hits the box test never misses). Skipping it takes 4.5% of a `bvh8`
+    // ray's instructions off.
     if tree.is_empty() || (V::COUNTS_NODES && !tree.root_bounds.hit_by(ray, tmax)) {
         return tmax;
     }
@@ -57,11 +54,9 @@ pub(crate) fn trace<N: NodeKind, K: TriangleTest, V: Visitor, const PREFETCH: bo
 /// visited.
 /// Most steps go on with the nearest child hit, whose box test just asked for it; the one
 /// below it on the stack is the next visit whenever the ray leaves this child's subtree
-/// without a hit in front of it, such as after a leaf. Measured with the prefetch at every
-/// step (one thread, 1M incoherent rays, `bvh8`, best of 3 x 3 passes alternated, ms): the
-/// 1M-triangle terrain 485.0 -> 427.7 (`--scene terrain` rays), 498.5 -> 429.1 (rays aimed at
-/// it as an object); on trees that stay in the caches it costs more than it saves: bunny
-/// 157.0 -> 158.3, fandisk 116.5 -> 119.9. Hence only beyond the caches.
+/// without a hit in front of it, such as after a leaf. The prefetch makes `bvh8` about 12%
+/// faster per ray on the 1M-triangle terrain and 1-3% slower on meshes that stay in the
+/// caches, hence only beyond the caches.
 #[inline(always)]
 pub(crate) fn trace_from<N: NodeKind, K: TriangleTest, V: Visitor, const PREFETCH: bool>(
     tree: &WideBvh<N>,
@@ -109,7 +104,7 @@ pub(crate) fn step<N: NodeKind, K: TriangleTest, V: Visitor>(
         // The hit children go on the stack, nearest on top, and the walk goes on with the
         // top entry in front of the best hit: no branch on whether any child was hit (a
         // quarter of the visits hit none, unpredictably). (Prefetching the pushed children's
-        // nodes was measured slower: 366 vs 332 ms on 1M bunny rays, 228 vs 218 on the teapot.)
+        // nodes is slower: about 10% on the bunny.)
         tree.nodes[item as usize].push_hits(wide_ray, *tmax, stack);
     }
     pop_in_front(stack, *tmax)

@@ -11,19 +11,14 @@
 //! builds check it).
 //!
 //! The walk is bound by the latency of each node's load and of picking the next child, and by
-//! mispredicted branches, more than by instruction count: a push that compressed the hit children in AVX2 registers (permute to the
-//! octant's order, a table of shuffles, one 32-byte store) took 95 fewer instructions per ray
-//! but ran 8% slower (fandisk, 1M incoherent rays: 222 against 206 ms, best of 5 x 3 passes),
-//! its choice of the next child going through a longer chain of shuffles; it was dropped.
-//! Two more that lost (paired runs, fandisk, 1M incoherent rays, one thread, best of 2 x 3
-//! passes): taking the nearest hit child straight from registers instead of popping it back
-//! (a select chain: 189 -> 224 ms; a first-hit table and a branch on "any child hit": 190 ->
-//! 193), and, for 8-wide nodes, the new length from the mask's `popcnt` instead of the writes'
-//! running position (170 -> 178). Moving the nearest hit child (by entry distance, found in
-//! registers: a horizontal minimum of the entries, `tzcnt` of the lanes that equal it) to the
-//! front of an 8-wide node's order made the walk 1.3-1.5x slower (fandisk 194 -> 284 ms, bunny
-//! 370 -> 473; 11% more instructions): the order then waits for the box test, and so does
-//! every push that depended only on the stored order before.
+//! mispredicted branches, more than by instruction count, so the push stays plain: one that
+//! compresses the hit children in AVX2 registers (permute to the octant's order, a table of
+//! shuffles, one 32-byte store) takes 95 fewer instructions per ray but runs 8% slower, its
+//! choice of the next child going through a longer chain of shuffles. Taking the nearest hit
+//! child straight from registers instead of popping it back, an 8-wide node's new length from
+//! the mask's `popcnt` instead of the writes' running position, and moving the nearest hit
+//! child to the front of the node's order (the order then waits for the box test) are all
+//! slower too (docs/benchmarks.md).
 
 use std::mem::MaybeUninit;
 
@@ -51,9 +46,8 @@ const _: () = assert!(
 ///
 /// Its slots are not initialised when it is made, so a stack costs nothing to create and a ray
 /// traced alone keeps its own on the call stack ([`super::WideBvh`]'s `trace_alone`) instead of
-/// looking up the thread's workspace (6% fewer instructions a ray, 0.85-0.95x the time: see
-/// the README's twentieth session). Only slots below `len` are ever read, and every one of them
-/// has been written: see [`Stack::pop`].
+/// looking up the thread's workspace (6% fewer instructions a ray). Only slots below `len`
+/// are ever read, and every one of them has been written: see [`Stack::pop`].
 pub(crate) struct Stack {
     /// `DEPTH_SLOTS` plus the `MAX_WIDTH` a push may write past the top.
     slots: [MaybeUninit<Pending>; DEPTH_SLOTS + MAX_WIDTH],

@@ -1,4 +1,4 @@
-//! A stream of rays down a wide tree once (seed 001, with four or eight children per node:
+//! A stream of rays down a wide tree once (with four or eight children per node:
 //! the node layout says how one ray and eight rays test its boxes, `kind::layout::Layout`).
 //!
 //! The rays are the batch's prepared records (one cache line each, holding the ray's current
@@ -13,20 +13,16 @@
 //! precomputed order for it, farther child first, so the nearer ones are walked first and
 //! closest-hit rays shrink early; a mixed stream pushes them in slot order. A leaf's triangles are fetched once and tested against every
 //! ray of its list, eight rays at a time through the watertight kernel's sign filter first
-//! (AVX2, `geom::sign_filter::RayOctet`; four at a time elsewhere), which proves most misses, so the scalar
-//! kernel runs only where a hit is possible (fandisk, 1M incoherent rays, one thread: 114-120
-//! -> 99-103 ms, paired runs). Lists shorter than [`BatchOptions::single_ray_below`] finish their subtree
-//! with the one-ray loop (any-hit lists: shorter than twice that, `single_ray_below`).
+//! (AVX2, `geom::sign_filter::RayOctet`; four at a time elsewhere), which proves most misses,
+//! so the scalar kernel runs only where a hit is possible (about 14% faster on the fandisk's
+//! incoherent rays). Lists shorter than [`BatchOptions::single_ray_below`] finish their
+//! subtree with the one-ray loop (any-hit lists: shorter than twice that, `single_ray_below`).
 //!
 //! Eight children per node (`WideTree8`) take a third fewer levels but test more boxes per ray
-//! and level: on octant streams the same engine over the 8-wide tree took 1.01-1.14x the
-//! 4-wide tree's time (0.88-0.99x its speed; 1M rays, one thread, alternated in one process,
-//! best of 5: fandisk and bunny, closest hit on incoherent rays and any hit on line-of-sight
-//! segments). Since small octants share a stream, it takes 0.94 / 0.96 / 0.99x the 4-wide tree's time on 1M
-//! incoherent rays (fandisk / teapot / bunny; 0.94 / 0.99 / 0.77x in calls of 4,096), but
-//! 0.98-1.05x on line-of-sight segments and 1.01-1.13x on camera rays (500k rays, best of 5).
-//! The 8-wide tree is the default nonetheless: single rays gain more than batches lose
-//! ([`crate::AccelKind::DEFAULT`] has the figures).
+//! and level: batched, the 8-wide tree takes about as long as the 4-wide tree on incoherent
+//! rays and up to 13% longer on camera rays. The 8-wide tree is the default nonetheless:
+//! single rays gain more than batches lose ([`crate::AccelKind::DEFAULT`];
+//! docs/benchmarks.md).
 //!
 //! The index lists live in one buffer used as a stack: a node's child lists are written above
 //! everything pending, and popping a list moves the buffer's logical end back to where its
@@ -61,12 +57,9 @@ pub(crate) struct Pending {
 /// the caller's [`crate::BatchOptions::single_ray_below`], doubled when `V` ends rays
 /// ([`Visitor::ENDS_RAYS`]). An any-hit stream carries the rays it has ended until a split
 /// drops them (23% of the rays entering an 8-wide tree's splits, 17% of a 4-wide tree's,
-/// fandisk line of sight), while the one-ray walk stops at a ray's first hit. Measured with
-/// thresholds 8 / 12 / 16, any hit on 1M line-of-sight segments, batched, one thread, best of
-/// 4 alternated runs (ms): `bvh8` bunny 37.1 / 35.5 / 34.4, city (200k) 19.8 / 19.3 / 18.9,
-/// fandisk 26.4 / 26.3 / 26.4, teapot 21.5 / 21.5 / 21.3; `bvh4` bunny 33.8 / 33.2 / 33.7,
-/// city 18.0 / 17.7 / 17.2. Closest-hit walks keep 8: larger thresholds cost the bunny in
-/// calls of 4,096 rays (`bvh8` 108.3 / 110.0 / 110.5, `bvh4` 120.2 / 123.4 / 125.5).
+/// fandisk line of sight), while the one-ray walk stops at a ray's first hit. Doubled (16), it
+/// takes up to 7% off the bunny's any-hit line-of-sight batches (`bvh8`); closest-hit walks
+/// keep 8, as larger thresholds cost the bunny in calls of 4,096 rays (docs/benchmarks.md).
 fn single_ray_below<V: Visitor>(option: usize) -> usize {
     if V::ENDS_RAYS {
         option.saturating_mul(2)
@@ -182,41 +175,28 @@ fn trace_blocks<N: NodeKind, K: TriangleTest, V: Visitor>(
 /// (`Accel::MIXES_SMALL_OCTANTS`: the split tests each ray against its own octant's planes,
 /// `simd::stream_masks`, and pushes child lists in slot order).
 ///
-/// A call's rays used to be grouped into eight octant streams, so that the split could pick
-/// one octant's planes per node and push the child lists in that octant's order; but
-/// incoherent rays then made eight short streams (about 512 rays for a call of 4,096, which
-/// the walk left to the one-ray loop after two or three levels), and a large call walked 1M
-/// records (64 MiB) out of the caches. One stream keeps lists eight times as long for the
-/// same records. Measured on an AMD EPYC (1 MiB of L2), one thread, every variant alternated
-/// in one process, best of 5, time against octant streams of 1M-ray chunks (fandisk / teapot
-/// / bunny): incoherent rays, closest hit, one mixed stream per call of 4,096 rays 0.90 / 0.74
-/// / 0.96, 16,384 0.73 / 0.73 / 0.91, 65,536 0.71 / 0.76 / 0.69; 1M rays in one call, mixed
-/// chunks of 32k 0.91 / 0.83 / 1.10, **64k 0.85 / 0.79 / 0.94**, 128k 0.99 / 0.96 / 0.94,
-/// 256k 1.25 / 1.24 / 1.04, 1M 1.59 / 1.69 / 1.45 (a long mixed walk reads its records out of
-/// the caches). Line-of-sight segments, any hit: 4,096 0.84 / 0.83 / 0.83; 1M in chunks of
-/// 64k 0.86 / 0.86 / 1.01, 128k 0.91 / 0.81 / 0.92.
+/// Eight octant streams would let the split pick one octant's planes per node and push the
+/// child lists in that octant's order; but incoherent rays make eight short streams (about
+/// 512 rays for a call of 4,096, which the walk leaves to the one-ray loop after two or three
+/// levels), and a large chunk walks its records out of the caches (64 MiB for 1M rays). One
+/// stream keeps lists eight times as long for the same records: incoherent rays in mixed
+/// chunks of 64k take 0.79-0.94x the time of octant streams of 1M-ray chunks, where longer
+/// mixed chunks read their records out of the caches (docs/benchmarks.md).
 ///
-/// Coherent rays keep their octant streams: a camera's 1M rays (a chunk of 64k holds one or
-/// two octants) walked as mixed streams took 1.59 / 1.63x (fandisk / bunny) the time of
-/// octant streams of the same 64k chunks, whose child lists come in the right order for
-/// every ray; those octant streams took 0.80 / 0.72x the time of the octant streams of 1M-ray
-/// chunks.
+/// Coherent rays keep their octant streams: a camera's rays walked as mixed streams take about
+/// 1.6x the time of octant streams of the same chunks, whose child lists come in the right
+/// order for every ray.
 pub(crate) const CHUNK: usize = 1 << 16;
 
 /// Rays per walk at most: a longer stream (a chunk from [`crate::BatchOptions::max_chunk`], a
 /// scene's stream) is walked in parts this long. Longer walks share each node and
 /// leaf among more rays, so more of the split and of the leaf tests run eight rays at a time
 /// and fewer rays finish alone; their records outgrow the caches, so the split prefetches them
-/// (`simd::PREFETCH_GROUPS`). Measured on octant streams, with the chunk as long (1M incoherent rays, one thread,
-/// closest hit, best of 5 alternated in one process, ms; walks of 64k in chunks of 128k without
-/// the prefetch, then 128k / 256k / 512k / 1M with it): bunny 182.9, 163.6 / 151.7 / 138.5 /
-/// 131.3; fandisk 102.5, 98.9 / 89.9 / 85.2 / 89.7; teapot 80.0, 79.0 / 77.1 / 76.2 / 82.6. Line
-/// of sight, any hit: bunny 84.8, 74.1 / 70.4 / 67.0 / 60.1; fandisk 40.9, 39.7 / 39.0 / 36.3 /
-/// 34.0; teapot 35.5, 35.2 / 33.6 / 32.2 / 29.7. (Before the prefetch, walks longer than 64k
-/// were slower: the split waited on each ray's record.) Copying the rays of a list of at most
-/// 1k / 4k / 16k rays next to each other before walking its subtree (so that the deeper splits
-/// read the caches) was slower than reading them in place, prefetched: bunny 146.9 / 152.9 /
-/// 160.4 against 131.4 ms.
+/// (`simd::PREFETCH_GROUPS`): on octant streams of 1M incoherent rays, prefetched walks of 1M
+/// take the bunny's closest hits about 28% less time than walks of 64k without the prefetch
+/// (docs/benchmarks.md). Copying the rays of a short list next to each other before walking
+/// its subtree (so that the deeper splits read the caches) is slower than reading them in
+/// place, prefetched.
 const BLOCK: usize = StreamLayout::Records.default_max_chunk();
 
 // `split` counts a node's rays per child in 32-bit fields.
@@ -311,8 +291,7 @@ impl<N: NodeKind> Walk<'_, N> {
     /// Prefetches what the next two lists waiting read first: the node or the leaf's
     /// triangles of the next (the second link of a leaf's read chain, whose first was
     /// prefetched a visit earlier), the first link of the one after. A visit tests many rays,
-    /// long enough to hide the wait (bunny, 1M incoherent rays, one thread, batched, paired
-    /// runs: 152-164 -> 142-146 ms; fandisk 94-100 -> 90-91; teapot 85 -> 81).
+    /// long enough to hide the wait (about 8% faster on the bunny's incoherent rays, batched).
     #[inline(always)]
     fn prefetch_pending(&self) {
         let n = self.pending.len();

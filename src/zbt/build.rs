@@ -1,4 +1,4 @@
-//! The zero-byte tree's SAH build (seed 002): at each node, keep the few triangles that define
+//! The zero-byte tree's SAH build: at each node, keep the few triangles that define
 //! its box ([`super::cover`]), take them out of the rest of the build, and split the rest with
 //! the binned SAH of the AABB trees.
 //!

@@ -1,4 +1,4 @@
-//! The box cache (seed 002): recomputed node boxes kept in a small direct-mapped table, one per
+//! The box cache: recomputed node boxes kept in a small direct-mapped table, one per
 //! thread, shared by every zero-byte and hybrid tree that thread queries.
 //!
 //! Recomputing a box reads up to 8 triangles and 24 scattered vertices; the nodes near the root
@@ -11,13 +11,13 @@
 use crate::geom::Aabb;
 use crate::workspace::StructureId;
 
-/// Entries per thread (the seed's figure, about 4K).
+/// Entries per thread: about 4K boxes, within the memory budget below.
 pub const ENTRIES: usize = 4096;
 
 /// Bytes of one thread's cache once allocated.
 pub const BYTES: usize = ENTRIES * size_of::<Entry>();
 
-// The budget: at most 256 KiB per thread.
+// The memory budget: at most 256 KiB per thread.
 const _: () = assert!(BYTES <= 256 * 1024);
 
 /// A cached box and whose it is (`tree == 0`: empty, as ids are never 0).

@@ -1,5 +1,5 @@
-//! [`HybridTree`] (the seed's future work): an ordinary AABB tree down to chunks of a few
-//! hundred triangles, each chunk a zero-byte tree.
+//! [`HybridTree`]: an ordinary AABB tree down to chunks of a few hundred triangles, each chunk
+//! a zero-byte tree.
 //!
 //! The top levels, which every ray walks and whose boxes a zero-byte tree would recompute most
 //! often, get stored boxes (a 60-byte top node holds both children's boxes, about one top node
@@ -38,9 +38,9 @@ pub struct HybridOptions {
 
 impl HybridOptions {
     /// The default chunk size: the fastest under 4 bytes per triangle. On the bunny, chunks of
-    /// 32 answer single rays at 0.76 times the AABB tree's speed (0.64 by instruction count)
-    /// for 2.7 bytes per triangle; 16 at 0.79 for 5.3 bytes, 64 at 0.69 for 1.4, 512 at 0.52
-    /// for 0.17 (`cargo run --release -p raybatch-tools --example zbt_variants`, README).
+    /// 32 answer single rays at 0.76 times the AABB tree's speed for 2.7 bytes per triangle
+    /// (smaller chunks cost twice the memory for little more speed, larger ones are slower;
+    /// docs/benchmarks.md).
     pub const DEFAULT_CHUNK_SIZE: u32 = 32;
 }
 

@@ -53,7 +53,7 @@ pub struct ZbtOptions {
     /// A child inherits a face of its parent's box (and needs no triangle reaching it) when
     /// the gap is at most this fraction of the child's extent on that axis; 0 keeps every box
     /// exact, a negative or NaN slack inherits nothing. The default 0.1 measured best (0.1 to
-    /// 0.25 within noise; 1 doubles the time: boxes too loose), see the README.
+    /// 0.25 within noise; 1 doubles the time: boxes too loose), see docs/benchmarks.md.
     pub inherit_slack: f32,
     /// Keep recomputed boxes in a per-thread cache ([`BOX_CACHE_BYTES`]) shared by every
     /// zero-byte tree the thread queries; off, every box is recomputed at every visit.

@@ -14,9 +14,9 @@ use glam::Vec3;
 use raybatch::brute_force;
 use raybatch::{Hit, Kernel, Mesh, Ray};
 
-/// Regression: two copies of one triangle, a ray aimed at a corner. The kernel's `t` used to
-/// round below the copy's box entry distance, so with leaf size 1 and fixed ordering the box
-/// of triangle 0 was culled and id 1 reported.
+/// Two copies of one triangle, a ray aimed at a corner. The kernel's `t` may round below the
+/// copy's box entry distance; unless the hit is raised to it (`agree_with_bounds`), with leaf
+/// size 1 and fixed ordering the box of triangle 0 would be culled and id 1 reported.
 #[test]
 fn ties_at_box_boundaries_pick_lowest_id() {
     let mesh = tri_mesh(

@@ -6,7 +6,7 @@
 //! - Any hits: 1 byte per ray, 1 if occluded, else 0.
 //!
 //! Reading and writing stream through fixed-size buffers: a ray file is never held in memory
-//! beside its rays (reading it whole used to take about three times the file's size).
+//! beside its rays (reading it whole would take about three times the file's size).
 
 use std::fmt;
 use std::io::{self, Read, Write};

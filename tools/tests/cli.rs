@@ -630,8 +630,8 @@ fn bench_filters_select_trees() {
     assert_eq!(both.status.code(), Some(2));
 }
 
-/// `--threads` is capped at 4 per core (it used to start any number, and 20,000 aborted the
-/// process after minutes): a usage error naming the limit, before any work.
+/// `--threads` is capped at 4 per core (20,000 threads would abort the process after
+/// minutes): a usage error naming the limit, before any work.
 #[test]
 fn threads_are_capped() {
     let dir = TempDir::new("threads");

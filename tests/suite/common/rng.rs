@@ -2,9 +2,9 @@
 //!
 //! Every random number a test draws (outside proptest's own generator) comes from [`seeded`],
 //! so a test is reproducible from the seed written in it. The helpers below draw `x`, `y`, `z`
-//! in that order, one `random_range` each, exactly like the hand-written
-//! `Vec3::new(rng.random_range(..), rng.random_range(..), rng.random_range(..))` they replace,
-//! so the numbers drawn from a seed are unchanged.
+//! in that order, one `random_range` each, exactly as
+//! `Vec3::new(rng.random_range(..), rng.random_range(..), rng.random_range(..))` does, so a
+//! seed gives the same numbers either way.
 
 use glam::Vec3;
 pub use rand::rngs::StdRng;

@@ -105,11 +105,11 @@ pub struct QueryArgs {
     /// [tmin, tmax], else 0.
     #[arg(long, value_parser = choice(&QueryKind::ALL, QueryKind::name))]
     pub kind: QueryKind,
-    /// The output, written only if everything succeeded ('-': stdout). See the README for
-    /// what happens when the path exists.
+    /// The output, written only if everything succeeded ('-': stdout). See tools/README.md
+    /// for what happens when the path exists.
     #[arg(long, value_name = "HITS.bin")]
     pub out: PathBuf,
-    /// The structure to build [default: the fastest per ray for the mesh: bvh8, or bvh8qb
+    /// The structure to build [default: the fastest per ray for the mesh: bvh8, or bvh8q
     /// where the tree and mesh are beyond the caches (from about 550k triangles)].
     #[arg(long, value_parser = tree_parser())]
     pub tree: Option<AccelKind>,
@@ -119,16 +119,16 @@ pub struct QueryArgs {
     /// Largest leaf size.
     #[arg(long, value_name = "N", default_value = DEFAULT_LEAF, value_parser = leaf_size)]
     pub leaf: u32,
-    /// The wide trees (bvh4, bvh4q, bvh8, bvh8q, bvh8qb): the largest leaf their collapse may merge small
-    /// subtrees into where the surface area heuristic says it pays (1: the binary tree's
-    /// leaves, as before the fourteenth session).
+    /// The wide trees (bvh4, bvh4q, bvh8, bvh8q): the largest leaf their collapse may merge
+    /// small subtrees into where the surface area heuristic says it pays (1: the binary tree's
+    /// leaves).
     #[arg(long, value_name = "N", default_value_t = BuildOptions::default().wide_leaf_size, value_parser = leaf_size)]
     pub wide_leaf: u32,
     /// Answer the rays as one batch (same answers, usually faster) instead of one by one.
     #[arg(long)]
     pub batched: bool,
     /// Run the query on N threads [default: 1 for the per-ray engine, one per core for
-    /// --batched]; at most 4 per core (see the README).
+    /// --batched]; at most 4 per core (see tools/README.md).
     #[arg(long, value_name = "N", value_parser = threads)]
     pub threads: Option<usize>,
     /// Answer the rays once to warm up, then N more times, timing each; the JSON line reports
@@ -151,9 +151,9 @@ pub struct QueryArgs {
     /// of more than 2^21 vertices copy nothing), the corners (36 bytes per triangle) or, for
     /// the wide trees, blocks (each leaf's ids and distinct corners together, one read a leaf,
     /// about 28 bytes per triangle; the binary trees copy the indices instead); auto: the
-    /// indices for bvh4 and bvh8, and for bvh8q over 8 MiB with its mesh, where bvh8qb
-    /// takes blocks (the indices where blocks would pass 38 bytes a triangle), nothing for
-    /// the others. Fewer dependent loads per leaf; the same answers.
+    /// indices for bvh4 and bvh8, blocks for bvh8q over 8 MiB with its mesh (the indices
+    /// where blocks would pass 38 bytes a triangle), nothing for the others. Fewer dependent
+    /// loads per leaf; the same answers.
     #[arg(long, value_name = "COPY", default_value = LeafCopy::default().name(), value_parser = choice(&LeafCopy::ALL, LeafCopy::name))]
     pub leaf_copy: LeafCopy,
     /// With --batched, whether the wide trees walk rays side by side, hiding cache misses
@@ -308,7 +308,7 @@ pub const THREADS_PER_CORE: usize = 4;
 
 /// The most threads `--threads` accepts: [`THREADS_PER_CORE`] per core. A query is CPU-bound,
 /// so threads beyond the cores only take turns on them; each costs a stack and a workspace, and
-/// tens of thousands exhaust the system (the process used to abort after minutes).
+/// tens of thousands exhaust the system (the process aborts after minutes).
 pub fn max_threads() -> usize {
     let cores = std::thread::available_parallelism().map_or(1, usize::from);
     THREADS_PER_CORE * cores

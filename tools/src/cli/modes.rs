@@ -31,7 +31,7 @@ use crate::workload::{PASSES, RaySets, speed};
 
 /// Rays per set the judge scores (the f64 reference costs a few microseconds a ray).
 pub const JUDGED_RAYS: usize = 20_000;
-/// Most rays per closed mesh in the bench's leak table (`--example leaks` runs 10M).
+/// Most rays per closed mesh in the bench's leak table, which keeps the bench's run short.
 pub const LEAK_RAYS: usize = 100_000;
 
 /// How a mode is built.
@@ -269,8 +269,8 @@ pub fn leaks(count: usize) -> (String, Vec<Record>) {
     let text = format!(
         "Leaks: {} rays per closed mesh (5,120 triangles each: an icosphere, a jittered one, one \
          10,000 units from the origin) from inside, aimed exactly at vertices and edge \
-         midpoints; every ray must hit, a miss is a leak (`cargo run --release -p \
-         raybatch-tools --example leaks` runs 10M).\n\n{}",
+         midpoints; every ray must hit, a miss is a leak (docs/benchmarks.md has runs of 10M \
+         rays per mesh).\n\n{}",
         thousands(count),
         table.render()
     );

@@ -1,5 +1,5 @@
 //! The scenes section of `raybatch bench` (`--scenes instanced`): scenes of instances, in the
-//! style of the seed's PEEL "SceneRaycastVsStaticMeshes" cases.
+//! style of PEEL's "SceneRaycastVsStaticMeshes" cases.
 //!
 //! 1. Per ray vs batched, closest hit, one thread, on two worlds: 16,384 small meshes (the
 //!    terrain cut into tiles, each its own mesh and tree) and a few large ones (a terrain and a

@@ -3,9 +3,9 @@
 //! Three closed meshes (every edge shared by exactly two triangles): an icosphere, the same
 //! with every vertex's radius jittered (uneven, non-convex facets), and an icosphere of radius
 //! 1 placed 10,000 units from the origin, where `f32` spacing is about 1e-3 and rounding is
-//! worst. The rays start inside (within 0.9 of the distance from the centre to the nearest face plane) and are aimed exactly at vertices
-//! and edge midpoints, as `raybatch/tests/watertight.rs` does, so each must hit; a miss is a
-//! leak.
+//! worst. The rays start inside (within 0.9 of the distance from the centre to the nearest face
+//! plane) and are aimed exactly at vertices and edge midpoints, as `tests/suite/watertight.rs`
+//! does, so each must hit; a miss is a leak.
 
 use std::collections::HashMap;
 

@@ -1,5 +1,5 @@
-//! Worlds of many meshes for the scene benchmarks and examples, in the style of the seed's
-//! PEEL "SceneRaycastVsStaticMeshes" cases: thousands of small meshes (a terrain cut into
+//! Worlds of many meshes for the scene benchmarks, in the style of PEEL's
+//! "SceneRaycastVsStaticMeshes" cases: thousands of small meshes (a terrain cut into
 //! tiles, each tile its own mesh and tree), a few large ones, and small props (crates, rocks)
 //! placed with rotations, as a game's world holds them.
 //!

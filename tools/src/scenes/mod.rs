@@ -111,9 +111,9 @@ pub fn named(name: &str) -> Option<Scene> {
     })
 }
 
-/// The scene an example's first argument names: the bunny if there is none, an OBJ file if it
+/// The scene a command-line argument names: the bunny if there is none, an OBJ file if it
 /// ends in `.obj`, else a built-in scene ([`named`]). Panics with the choices otherwise (for
-/// examples, whose arguments a person types).
+/// arguments a person types).
 pub fn from_arg(arg: Option<&str>) -> Scene {
     match arg {
         None => bunny(),
