@@ -15,7 +15,6 @@ use raybatch::MAX_LEAF_SIZE;
 use raybatch::{AccelKind, BatchOrdering, BuildOptions, Interleave, Kernel, LeafCopy};
 use raybatch_tools::scenes::RaySet;
 
-use crate::bench::SCENE_NAMES;
 use crate::runner::QueryKind;
 
 /// raybatch: batches of ray queries against triangle meshes.
@@ -62,6 +61,15 @@ impl Command {
 
 /// Default largest leaf size.
 const DEFAULT_LEAF: &str = "4";
+
+/// The built-in scenes `--scenes` accepts.
+pub const SCENE_NAMES: [&str; 5] = [
+    "bunny",
+    "terrain",
+    "city",
+    "sparse",
+    crate::scene_bench::NAME,
+];
 
 /// Flags of `raybatch bench`.
 #[derive(Debug, Args)]

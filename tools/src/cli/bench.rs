@@ -33,15 +33,6 @@ use crate::runner::{Engine, QueryKind};
 use crate::table::{Align, Table, ratio, thousands};
 use crate::workload::{COLUMNS, PASSES, RaySets, speed};
 
-/// The built-in scenes `--scenes` accepts.
-pub const SCENE_NAMES: [&str; 5] = [
-    "bunny",
-    "terrain",
-    "city",
-    "sparse",
-    crate::scene_bench::NAME,
-];
-
 /// Rays per set by default (the bunny included), with `--quick`, and at most for the orderings
 /// other than pns (timed only when `--rays` asks for a long run). The default keeps the whole
 /// run, report included, under five minutes on two cores.
@@ -184,7 +175,7 @@ fn load_scenes(args: &BenchArgs) -> Result<Vec<BenchScene>, CliError> {
     Ok(scenes.into_iter().map(BenchScene::from).collect())
 }
 
-/// The built-in scene called `name` (one of [`SCENE_NAMES`]; the parser checked).
+/// The built-in scene called `name` (one of [`crate::args::SCENE_NAMES`]; the parser checked).
 fn builtin_scene(name: &str) -> Scene {
     progress::step(format!("{name}: generating the scene"));
     scenes::named(name).unwrap_or_else(|| unreachable!("scene '{name}' passed the parser"))
