@@ -142,77 +142,141 @@ impl<const KZ: usize> TriangleTest for WatertightAxis<KZ> {
     #[inline(always)]
     fn intersect(ray: &PreparedRay, tri: &[Vec3; 3], tmax: f32) -> Option<TriangleHit> {
         debug_assert_eq!(ray.kz as usize, KZ);
-        let (kx, ky, kz) = ((KZ + 1) % 3, (KZ + 2) % 3, KZ);
-        let a = (tri[0] - ray.origin).to_array();
-        let b = (tri[1] - ray.origin).to_array();
-        let c = (tri[2] - ray.origin).to_array();
-        // Shear and project onto the plane perpendicular to the ray.
-        let (sx, sy, sz) = (ray.shear.x, ray.shear.y, ray.shear.z);
-        let ax = a[kx] - sx * a[kz];
-        let ay = a[ky] - sy * a[kz];
-        let bx = b[kx] - sx * b[kz];
-        let by = b[ky] - sy * b[kz];
-        let cx = c[kx] - sx * c[kz];
-        let cy = c[ky] - sy * c[kz];
-        let projected = [ax, ay, bx, by, cx, cy];
-        let z = [a[kz], b[kz], c[kz]];
-        let mut u = cx * by - cy * bx;
-        let mut v = ax * cy - ay * cx;
-        let mut w = bx * ay - by * ax;
-        // Non-short-circuit `|` and `&`: one branch each instead of a chain, since whether a
-        // ray passes a triangle is unpredictable (the same values, so the same answers).
-        if below_normal(u) | below_normal(v) | below_normal(w) {
-            // An edge function that is zero (the ray on an edge or vertex) gets its exact sign
-            // in `f64`; one too small for `f32` (a triangle and ray near the origin at a tiny
-            // scale) gets the whole test in `f64`.
-            let exact = edge_functions_f64(projected);
-            if exact.iter().any(|e| below_normal(*e as f32) && *e != 0.0) {
-                return intersect_f64(ray, tri, tmax, exact, z, sz);
-            }
-            (u, v, w) = (exact[0] as f32, exact[1] as f32, exact[2] as f32);
+        let (xy, z) = project::<KZ>(ray, tri);
+        let [u, v, w] = edge_functions(xy);
+        // Signs taken beyond the subnormal range: where all three edge functions are normal,
+        // these are their signs, and the same compares tell whether one is not. Non-short-
+        // circuit `|` and `&`: one branch each instead of a chain, since whether a ray passes
+        // a triangle is unpredictable (the same values, so the same answers).
+        let m = f32::MIN_POSITIVE;
+        let (neg, pos) = ([u < -m, v < -m, w < -m], [u > m, v > m, w > m]);
+        if !((neg[0] | pos[0]) & (neg[1] | pos[1]) & (neg[2] | pos[2])) {
+            return exact_edges::<KZ>(ray, tri, tmax);
         }
-        if ((u < 0.0) | (v < 0.0) | (w < 0.0)) & ((u > 0.0) | (v > 0.0) | (w > 0.0)) {
+        if (neg[0] | neg[1] | neg[2]) & (pos[0] | pos[1] | pos[2]) {
             return None;
         }
-        let det = u + v + w;
-        if det == 0.0 {
-            return None;
-        }
-        // The paper scales the z coordinates by `sz = 1 / dir[kz]` before combining them; for a
-        // short direction `sz` is huge and that product overflows although `t` itself is
-        // finite, so the scale is applied last, to the distance along z.
-        let terms = [u * z[0], v * z[1], w * z[2]];
-        if underflows(terms[0], u, z[0])
-            | underflows(terms[1], v, z[1])
-            | underflows(terms[2], w, z[2])
-        {
-            return intersect_f64(ray, tri, tmax, edge_functions_f64(projected), z, sz);
-        }
-        let z_along = (terms[0] + terms[1] + terms[2]) / det;
-        let t = z_along * sz;
-        if !in_range(t, ray.tmin, tmax) {
-            return None;
-        }
-        agree_with_bounds(
-            ray,
-            tri,
-            tmax,
-            TriangleHit {
-                t,
-                u: v / det,
-                v: w / det,
-            },
-        )
+        hit_distance::<KZ>(ray, tri, tmax, [u, v, w], z)
     }
+}
+
+/// The corners relative to the ray's origin, sheared and projected onto the plane
+/// perpendicular to the ray (`[ax, ay, bx, by, cx, cy]`), and their distances along the
+/// dominant axis `KZ`.
+#[inline(always)]
+fn project<const KZ: usize>(ray: &PreparedRay, tri: &[Vec3; 3]) -> ([f32; 6], [f32; 3]) {
+    let (kx, ky, kz) = ((KZ + 1) % 3, (KZ + 2) % 3, KZ);
+    let a = (tri[0] - ray.origin).to_array();
+    let b = (tri[1] - ray.origin).to_array();
+    let c = (tri[2] - ray.origin).to_array();
+    let (sx, sy) = (ray.shear.x, ray.shear.y);
+    let xy = [
+        a[kx] - sx * a[kz],
+        a[ky] - sy * a[kz],
+        b[kx] - sx * b[kz],
+        b[ky] - sy * b[kz],
+        c[kx] - sx * c[kz],
+        c[ky] - sy * c[kz],
+    ];
+    (xy, [a[kz], b[kz], c[kz]])
+}
+
+/// The edge functions `u, v, w` of the projected corners.
+#[inline(always)]
+fn edge_functions([ax, ay, bx, by, cx, cy]: [f32; 6]) -> [f32; 3] {
+    [cx * by - cy * bx, ax * cy - ay * cx, bx * ay - by * ax]
+}
+
+/// The rest of the test once the edge functions `uvw` have one sign: the distance, its range
+/// and the barycentrics.
+#[inline(always)]
+fn hit_distance<const KZ: usize>(
+    ray: &PreparedRay,
+    tri: &[Vec3; 3],
+    tmax: f32,
+    [u, v, w]: [f32; 3],
+    z: [f32; 3],
+) -> Option<TriangleHit> {
+    let det = u + v + w;
+    if det == 0.0 {
+        return None;
+    }
+    // The paper scales the z coordinates by `sz = 1 / dir[kz]` before combining them; for a
+    // short direction `sz` is huge and that product overflows although `t` itself is finite,
+    // so the scale is applied last, to the distance along z.
+    let terms = [u * z[0], v * z[1], w * z[2]];
+    let sum = terms[0] + terms[1] + terms[2];
+    // A term that underflowed is off by less than 2^-149; against a sum of at least 2^-100 that
+    // is far below the sum's own rounding, so only smaller sums look at the terms.
+    if (sum.abs() < TINY_SUM)
+        && (underflows(terms[0], u, z[0])
+            | underflows(terms[1], v, z[1])
+            | underflows(terms[2], w, z[2]))
+    {
+        return tiny_distance::<KZ>(ray, tri, tmax);
+    }
+    let z_along = sum / det;
+    let t = z_along * ray.shear.z;
+    if !in_range(t, ray.tmin, tmax) {
+        return None;
+    }
+    agree_with_bounds(
+        ray,
+        tri,
+        tmax,
+        TriangleHit {
+            t,
+            u: v / det,
+            v: w / det,
+        },
+    )
+}
+
+/// An edge function is zero or subnormal: zero ones (the ray on an edge or vertex) get their
+/// exact signs in `f64`; where one is too small for `f32` (a triangle and ray near the origin
+/// at a tiny scale) the whole test runs in `f64`. Out of line, and recomputing the projection
+/// (the same `f32` operations, so the same values), so that the common path keeps nothing for
+/// it.
+#[inline(always)]
+fn exact_edges<const KZ: usize>(
+    ray: &PreparedRay,
+    tri: &[Vec3; 3],
+    tmax: f32,
+) -> Option<TriangleHit> {
+    let (xy, z) = project::<KZ>(ray, tri);
+    let exact = edge_functions_f64(xy);
+    if exact.iter().any(|e| below_normal(*e as f32) && *e != 0.0) {
+        return intersect_f64(ray, tri, tmax, exact, z);
+    }
+    let [u, v, w] = exact.map(|e| e as f32);
+    if ((u < 0.0) | (v < 0.0) | (w < 0.0)) & ((u > 0.0) | (v > 0.0) | (w > 0.0)) {
+        return None;
+    }
+    hit_distance::<KZ>(ray, tri, tmax, [u, v, w], z)
+}
+
+/// A distance term underflowed in `f32` (a tiny triangle seen from close by): the test again,
+/// in `f64`.
+#[inline(always)]
+fn tiny_distance<const KZ: usize>(
+    ray: &PreparedRay,
+    tri: &[Vec3; 3],
+    tmax: f32,
+) -> Option<TriangleHit> {
+    let (xy, z) = project::<KZ>(ray, tri);
+    intersect_f64(ray, tri, tmax, edge_functions_f64(xy), z)
 }
 
 /// The edge functions recomputed in `f64`, where the products of `f32` values are exact, so
 /// their signs are exact on edges and vertices.
-#[cold]
+#[inline(always)]
 fn edge_functions_f64(p: [f32; 6]) -> [f64; 3] {
     let [ax, ay, bx, by, cx, cy] = p.map(f64::from);
     [cx * by - cy * bx, ax * cy - ay * cx, bx * ay - by * ax]
 }
+
+/// Below this, a distance's sum of terms is checked for terms that underflowed (2^-100).
+const TINY_SUM: f32 = f32::from_bits((127 - 100) << 23);
 
 /// Zero or subnormal: an `f32` that may have lost its sign or its precision to underflow.
 #[inline(always)]
@@ -226,20 +290,17 @@ fn underflows(product: f32, x: f32, y: f32) -> bool {
     below_normal(product) & (x != 0.0) & (y != 0.0)
 }
 
-/// The watertight test in `f64` from the sheared, projected corners (`p`, as the `f32` path
-/// computes them) and their distances along the dominant axis (`z`), for triangles whose `f32`
-/// edge functions or distance terms underflow: products of `f32` values are exact in `f64`,
-/// and its range holds them at every scale a mesh may have, so tiny meshes are as exact as
-/// any other.
-#[cold]
-#[inline(never)]
+/// The watertight test in `f64` from the exact edge functions `uvw` and the corners' distances
+/// along the dominant axis (`z`), for triangles whose `f32` edge functions or distance terms
+/// underflow: products of `f32` values are exact in `f64`, and its range holds them at every
+/// scale a mesh may have, so tiny meshes are as exact as any other.
+#[inline(always)]
 fn intersect_f64(
     ray: &PreparedRay,
     tri: &[Vec3; 3],
     tmax: f32,
     [u, v, w]: [f64; 3],
     z: [f32; 3],
-    sz: f32,
 ) -> Option<TriangleHit> {
     if ((u < 0.0) | (v < 0.0) | (w < 0.0)) & ((u > 0.0) | (v > 0.0) | (w > 0.0)) {
         return None;
@@ -249,7 +310,7 @@ fn intersect_f64(
         return None;
     }
     let [za, zb, zc] = z.map(f64::from);
-    let t = ((u * za + v * zb + w * zc) / det * f64::from(sz)) as f32;
+    let t = ((u * za + v * zb + w * zc) / det * f64::from(ray.shear.z)) as f32;
     if !in_range(t, ray.tmin, tmax) {
         return None;
     }
@@ -426,7 +487,7 @@ mod tests {
             f32::INFINITY,
         )
         .unwrap();
-        for exponent in [-10, -13, -15, -18, -22, -23, -26, -30, -34] {
+        for exponent in [-10, -13, -15, -18, -22, -23, -26, -30, -34, -37] {
             let s = 10f32.powi(exponent);
             let tri = unit.map(|p| p * s);
             let ray = PreparedRay::new(&Ray::new(origin * s, Vec3::Z)).unwrap();

@@ -137,14 +137,14 @@ fn no_leaks_from_inside_closed_icosphere() {
     );
 }
 
-/// At every scale a mesh may have: an icosphere of radius 1e-10 to 1e-35 near the origin,
-/// rays from its centre aimed at every vertex and edge midpoint, per ray and batched, every
-/// structure: no leak, and every hit on the sphere.
+/// At every scale a mesh may have: an icosphere of radius 1e-10 to 1e-40 (subnormal corners)
+/// near the origin, rays from its centre aimed at every vertex and edge midpoint, per ray and
+/// batched, every structure: no leak, and every hit on the sphere.
 #[test]
 fn no_leaks_at_tiny_scales() {
     let unit = icosphere(2);
-    for exponent in [-10, -15, -22, -28, -35] {
-        let r = 10f32.powi(exponent);
+    for exponent in [-10, -15, -22, -28, -35, -38, -40] {
+        let r = 10f64.powi(exponent) as f32;
         let mesh = Mesh::new(
             unit.vertices().iter().map(|&v| v * r).collect(),
             unit.triangles().to_vec(),
@@ -160,7 +160,13 @@ fn no_leaks_at_tiny_scales() {
                     .map(|&(a, b)| (verts[a as usize] + verts[b as usize]) * 0.5),
             )
             .collect();
-        let rays: Vec<Ray> = targets.iter().map(|&t| Ray::new(Vec3::ZERO, t)).collect();
+        // Aimed with a direction scaled up by a power of two (exact): a subnormal direction
+        // counts as zero (`Ray::validate`).
+        let unit_scale = 2f32.powi((-r.log2().floor() as i32).min(100));
+        let rays: Vec<Ray> = targets
+            .iter()
+            .map(|&t| Ray::new(Vec3::ZERO, t * unit_scale))
+            .collect();
         let zoo = structures_with(&mesh, &AccelKind::ALL, &[4], &[ChildOrdering::Pns]);
         for t in &zoo {
             let mut batched = vec![None; rays.len()];

@@ -155,6 +155,10 @@ fn check_json(output: &Output, rays: usize, hits: usize) {
     }
     assert_eq!(json_int(line, "rays"), Some(rays as u64), "{line}");
     assert_eq!(json_int(line, "hits"), Some(hits as u64), "{line}");
+    // The build's peak holds at least the structure it returns.
+    let tree_bytes = json_int(line, "tree_bytes").expect("tree_bytes");
+    let peak = json_int(line, "build_peak_bytes").expect("build_peak_bytes");
+    assert!(peak >= tree_bytes, "{line}");
 }
 
 /// The string value of `"key":"value"` in a one-line JSON object (no escapes).

@@ -65,13 +65,12 @@ impl RayQuad {
         let u = cx * by - cy * bx;
         let v = ax * cy - ay * cx;
         let w = bx * ay - by * ax;
-        let zero = Vec4::ZERO;
-        let normal = Vec4::splat(f32::MIN_POSITIVE);
-        let any_below_normal =
-            u.abs().cmplt(normal) | v.abs().cmplt(normal) | w.abs().cmplt(normal);
-        let any_negative = u.cmplt(zero) | v.cmplt(zero) | w.cmplt(zero);
-        let any_positive = u.cmpgt(zero) | v.cmpgt(zero) | w.cmpgt(zero);
-        let certain_miss = any_negative & any_positive & !any_below_normal;
+        // The kernel's compares: signs beyond the subnormal range.
+        let m = Vec4::splat(f32::MIN_POSITIVE);
+        let (un, vn, wn) = (u.cmplt(-m), v.cmplt(-m), w.cmplt(-m));
+        let (up, vp, wp) = (u.cmpgt(m), v.cmpgt(m), w.cmpgt(m));
+        let all_normal = (un | up) & (vn | vp) & (wn | wp);
+        let certain_miss = all_normal & (un | vn | wn) & (up | vp | wp);
         !certain_miss.bitmask() & 0b1111
     }
 

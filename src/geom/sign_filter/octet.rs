@@ -5,10 +5,10 @@
 //! four.
 
 use std::arch::x86_64::{
-    __m256, _CMP_GT_OQ, _CMP_LT_OQ, _mm256_and_ps, _mm256_and_si256, _mm256_andnot_ps,
-    _mm256_blendv_ps, _mm256_castps_si256, _mm256_castsi256_ps, _mm256_cmp_ps, _mm256_cmpeq_epi32,
-    _mm256_load_ps, _mm256_movemask_ps, _mm256_mul_ps, _mm256_or_ps, _mm256_set1_epi32,
-    _mm256_set1_ps, _mm256_setzero_ps, _mm256_srli_epi32, _mm256_sub_ps,
+    __m256, _CMP_GT_OQ, _CMP_LT_OQ, _mm256_and_ps, _mm256_and_si256, _mm256_blendv_ps,
+    _mm256_castps_si256, _mm256_castsi256_ps, _mm256_cmp_ps, _mm256_cmpeq_epi32, _mm256_load_ps,
+    _mm256_movemask_ps, _mm256_mul_ps, _mm256_or_ps, _mm256_set1_epi32, _mm256_set1_ps,
+    _mm256_srli_epi32, _mm256_sub_ps,
 };
 
 use glam::Vec3;
@@ -132,19 +132,17 @@ impl RayOctet {
         let u = _mm256_sub_ps(_mm256_mul_ps(cx, by), _mm256_mul_ps(cy, bx));
         let v = _mm256_sub_ps(_mm256_mul_ps(ax, cy), _mm256_mul_ps(ay, cx));
         let w = _mm256_sub_ps(_mm256_mul_ps(bx, ay), _mm256_mul_ps(by, ax));
-        let any = |f: fn(__m256, __m256) -> __m256, against: __m256| {
-            _mm256_or_ps(_mm256_or_ps(f(u, against), f(v, against)), f(w, against))
-        };
-        let zero = _mm256_setzero_ps();
-        // |x| < the smallest normal: zero or subnormal (the sign bit cleared by a mask).
-        let magnitude = _mm256_castsi256_ps(_mm256_set1_epi32(0x7FFF_FFFF));
-        let normal = _mm256_set1_ps(f32::MIN_POSITIVE);
-        let below = |x: __m256| _mm256_cmp_ps::<_CMP_LT_OQ>(_mm256_and_ps(x, magnitude), normal);
-        let any_below_normal = _mm256_or_ps(_mm256_or_ps(below(u), below(v)), below(w));
-        let any_negative = any(|a, b| _mm256_cmp_ps::<_CMP_LT_OQ>(a, b), zero);
-        let any_positive = any(|a, b| _mm256_cmp_ps::<_CMP_GT_OQ>(a, b), zero);
-        let certain_miss =
-            _mm256_andnot_ps(any_below_normal, _mm256_and_ps(any_negative, any_positive));
+        // The kernel's compares: signs beyond the subnormal range.
+        let m = _mm256_set1_ps(f32::MIN_POSITIVE);
+        let minus_m = _mm256_set1_ps(-f32::MIN_POSITIVE);
+        let negative = |x: __m256| _mm256_cmp_ps::<_CMP_LT_OQ>(x, minus_m);
+        let positive = |x: __m256| _mm256_cmp_ps::<_CMP_GT_OQ>(x, m);
+        let (un, vn, wn) = (negative(u), negative(v), negative(w));
+        let (up, vp, wp) = (positive(u), positive(v), positive(w));
+        let or = |a, b| _mm256_or_ps(a, b);
+        let and = |a, b| _mm256_and_ps(a, b);
+        let all_normal = and(and(or(un, up), or(vn, vp)), or(wn, wp));
+        let certain_miss = and(all_normal, and(or(or(un, vn), wn), or(or(up, vp), wp)));
         !(_mm256_movemask_ps(certain_miss) as u32) & 0xFF
     }
 

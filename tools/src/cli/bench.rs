@@ -26,6 +26,7 @@ use raybatch_tools::scenes::{self, RaySet, Scene, SceneKind};
 use crate::args::BenchArgs;
 use crate::compare::{self, BatchedRow, Subject};
 use crate::error::CliError;
+use crate::heap;
 use crate::inputs::load_mesh;
 use crate::measure::time_ms;
 use crate::progress::{self, Job};
@@ -225,6 +226,8 @@ struct Row {
     build_ms: f64,
     parallel_build_ms: f64,
     bytes_per_triangle: f64,
+    /// The most heap the (parallel) build had in use at once, per triangle.
+    build_peak_per_triangle: f64,
     /// Per-ray Mrays/s on one thread, per entry of [`COLUMNS`].
     mrays: Vec<f64>,
 }
@@ -428,7 +431,8 @@ fn bench_tree(
     progress::step(format!("{label}: building"));
     let options = plan.options(ordering);
     let (tree, build_ms) = build(kind, &scene.mesh, options.with_parallel(false));
-    let (_, parallel_build_ms) = build(kind, &scene.mesh, options);
+    let ((_, parallel_build_ms), build_peak) =
+        heap::peak_during(|| build(kind, &scene.mesh, options));
     let mrays = COLUMNS
         .iter()
         .map(|c| {
@@ -442,6 +446,7 @@ fn bench_tree(
         build_ms,
         parallel_build_ms,
         bytes_per_triangle: tree.bytes_per_triangle(),
+        build_peak_per_triangle: build_peak as f64 / scene.mesh.triangle_count().max(1) as f64,
         mrays,
     };
     (row, tree)
@@ -488,6 +493,7 @@ fn results_table(rows: &[Row]) -> Table {
     table.column("build ms", Align::Right);
     table.column("parallel build ms", Align::Right);
     table.column("bytes/tri", Align::Right);
+    table.column("build peak bytes/tri", Align::Right);
     for c in &COLUMNS {
         table.column(c.title(), Align::Right);
     }
@@ -511,6 +517,7 @@ fn row_cells(row: &Row, rows: &[Row]) -> Vec<String> {
         format!("{:.1}", row.build_ms),
         format!("{:.1}", row.parallel_build_ms),
         format!("{:.1}", row.bytes_per_triangle),
+        format!("{:.1}", row.build_peak_per_triangle),
     ];
     cells.extend(row.mrays.iter().map(|m| format!("{m:.2}")));
     cells.push(vs(find(AccelKind::DEFAULT, row.ordering)));

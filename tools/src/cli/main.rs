@@ -8,6 +8,7 @@ mod args;
 mod bench;
 mod compare;
 mod error;
+mod heap;
 mod inputs;
 mod json;
 mod measure;
@@ -28,6 +29,10 @@ use std::process::ExitCode;
 use args::{Cli, Command};
 use clap::Parser;
 use error::CliError;
+
+/// The system allocator with a high mark, for the builds' peak heap (`heap`).
+#[global_allocator]
+static ALLOCATOR: heap::Counting = heap::Counting;
 
 fn main() -> ExitCode {
     // Help, version and malformed command lines end here (exit code 0 or 2).

@@ -10,11 +10,12 @@
 //! pool of `N` threads (see [`crate::runner`]); `--passes N` times N passes after a warm-up
 //! and reports their median. Every combination writes the same bytes.
 
-use raybatch::{AccelKind, BuildOptions, Ray};
+use raybatch::{AccelKind, BuildOptions, Footprint, Ray};
 use raybatch_tools::formats::{write_closest, write_occluded};
 
 use crate::args::QueryArgs;
 use crate::error::CliError;
+use crate::heap;
 use crate::inputs::{load_mesh, read_rays};
 use crate::json::JsonLine;
 use crate::measure::{Measurement, measure, measure_passes, time_ms};
@@ -50,7 +51,8 @@ pub fn run(args: &QueryArgs) -> Result<(), CliError> {
         .with_leaf_size(args.leaf)
         .with_wide_leaf_size(args.wide_leaf)
         .with_leaf_copy(args.leaf_copy);
-    let (tree, build_ms) = time_ms(|| kind.build(mesh, &options));
+    let ((tree, build_ms), build_peak) =
+        heap::peak_during(|| time_ms(|| kind.build(mesh, &options)));
     let tree = tree.map_err(|e| CliError::input(format!("{}: {e}", args.mesh.display())))?;
     progress::step(format!("answering {} rays", rays.len()));
     let answers = answer(&tree, build_ms, &rays, args)?;
@@ -60,7 +62,14 @@ pub fn run(args: &QueryArgs) -> Result<(), CliError> {
         QueryKind::Any => write_occluded(out, answers.runner.occluded()),
     })?;
     progress::done();
-    eprintln!("{}", report(args, kind, triangles, &answers).render());
+    let memory = Memory {
+        tree_bytes: tree.heap_bytes(),
+        build_peak_bytes: build_peak,
+    };
+    eprintln!(
+        "{}",
+        report(args, kind, triangles, &answers, memory).render()
+    );
     Ok(())
 }
 
@@ -115,7 +124,20 @@ fn query_for(args: &QueryArgs) -> Query {
     query.with_interleave(args.interleave)
 }
 
-fn report(args: &QueryArgs, kind: AccelKind, triangles: usize, answers: &Answers) -> JsonLine {
+/// What the structure keeps beside the mesh, and the most heap its build had in use at once
+/// (the structure included, the mesh not).
+struct Memory {
+    tree_bytes: usize,
+    build_peak_bytes: usize,
+}
+
+fn report(
+    args: &QueryArgs,
+    kind: AccelKind,
+    triangles: usize,
+    answers: &Answers,
+    memory: Memory,
+) -> JsonLine {
     let line = JsonLine::default()
         .int("rays", answers.query.rays)
         .int("triangles", triangles)
@@ -125,6 +147,8 @@ fn report(args: &QueryArgs, kind: AccelKind, triangles: usize, answers: &Answers
         .str("engine", answers.engine.name())
         .int("threads", answers.threads)
         .num("build_ms", answers.build_ms)
+        .int("tree_bytes", memory.tree_bytes)
+        .int("build_peak_bytes", memory.build_peak_bytes)
         .num("query_ms", answers.query.seconds * 1e3)
         .num("mrays_per_s", answers.query.mrays_per_s())
         .int("hits", answers.query.hits);
