@@ -325,9 +325,8 @@ impl<'a> RayStream<'a> {
         let lane = self.lane(i);
         if let Storage::Records(records) = &self.storage {
             let ray = &records.rays[lane];
-            // Both ends of the 64-byte record, which need not start on a cache line.
+            // One line: a record is 64 bytes, aligned to 64.
             crate::prefetch::prefetch(ray);
-            crate::prefetch::prefetch(&ray.pad);
             crate::prefetch::prefetch(&records.ids[lane]);
         }
     }

@@ -236,18 +236,16 @@ impl AnyAccel {
         self.bounds
     }
 
-    /// The binary AABB tree behind this structure, if it is one ([`AccelKind::Aabb`]): the
-    /// one kind a scene can refit after its mesh deforms (then [`AnyAccel::set_mesh_bounds`]).
-    pub(crate) fn aabb_mut(&mut self) -> Option<&mut AabbTree> {
-        match &mut self.tree {
-            Tree::Aabb(tree) => Some(tree),
-            _ => None,
-        }
-    }
-
-    /// Sets the mesh's box, after the tree's mesh moved.
-    pub(crate) fn set_mesh_bounds(&mut self, bounds: Aabb) {
-        self.bounds = bounds;
+    /// Runs `f` on the binary AABB tree behind this structure, if it is one
+    /// ([`AccelKind::Aabb`], the one kind a scene can refit after its mesh deforms), then
+    /// takes the mesh's box again, whatever `f` did to the mesh.
+    pub(crate) fn with_aabb<R>(&mut self, f: impl FnOnce(&mut AabbTree) -> R) -> Option<R> {
+        let Tree::Aabb(tree) = &mut self.tree else {
+            return None;
+        };
+        let result = f(tree);
+        self.bounds = tree.mesh().bounds();
+        Some(result)
     }
 }
 

@@ -128,19 +128,14 @@ pub struct Closest<'a> {
 impl Visitor for Closest<'_> {
     #[inline(always)]
     fn visit(&mut self, ray: u32, hit: Hit, tmax: &mut f32) {
-        keep_closest(&mut self.best[ray as usize], hit, tmax);
-    }
-}
-
-/// Keeps `hit` in `best` if it is before it by the tie rule, shrinking the range to it.
-#[inline(always)]
-fn keep_closest(best: &mut Hit, hit: Hit, tmax: &mut f32) {
-    // `tmax` is always the best `t` so far and structures only report `t <= tmax`, so a
-    // strictly smaller `t` wins without reading the best hit (a cache miss in a batch of a
-    // million rays); only a tie needs the best hit's id.
-    if hit.t < *tmax || hit.is_before(best) {
-        *best = hit;
-        *tmax = hit.t;
+        let best = &mut self.best[ray as usize];
+        // `tmax` is always the best `t` so far and structures only report `t <= tmax`, so a
+        // strictly smaller `t` wins without reading the best hit (a cache miss in a batch of a
+        // million rays); only a tie needs the best hit's id.
+        if hit.t < *tmax || hit.is_before(best) {
+            *best = hit;
+            *tmax = hit.t;
+        }
     }
 }
 
@@ -170,7 +165,7 @@ impl<F: FnMut(Hit)> Visitor for EachHit<F> {
     }
 }
 
-/// [`Visitor`] without its constants, so that it can sit behind `&mut dyn` (see [`Renamed`]).
+/// [`Visitor`] without its constants, so that it can sit behind `&mut dyn` (see [`Keep::Renamed`]).
 pub(crate) trait DynVisitor {
     fn visit_dyn(&mut self, ray: u32, hit: Hit, tmax: &mut f32);
     fn enter_node_dyn(&mut self, ray: u32);
@@ -185,11 +180,9 @@ impl<V: Visitor> DynVisitor for V {
     }
 }
 
-/// How a [`Sink`] turns a structure's triangle ids into its caller's.
+/// How a renaming [`Sink`] turns a structure's triangle ids into its caller's.
 #[derive(Clone, Copy)]
 pub(crate) enum Ids<'a> {
-    /// The same ids.
-    Same,
     /// The caller's id is the structure's plus an offset (a scene instance's first global id).
     Offset(u32),
     /// The caller's id is `table[id]` (a reordered mesh's original ids).
@@ -197,40 +190,48 @@ pub(crate) enum Ids<'a> {
 }
 
 /// What a [`Sink`] keeps of each hit: one variant per batched query, or a visitor of the
-/// caller's behind `&mut dyn` (for the adapters that rename hits).
+/// caller's behind `&mut dyn`, with the renaming of the adapters that wrap a structure.
 pub(crate) enum Keep<'a> {
-    /// Each ray's closest hit by the tie rule (as [`Closest`]), and how many hits were
-    /// reported (what the batched closest-hit query's choice of grouping reads,
-    /// `crate::batch::mixing`; one add per hit).
-    Closest { best: &'a mut [Hit], reported: u64 },
-    /// Whether each ray hit anything; a ray ends at its first hit (as [`Any`]).
-    Any { occluded: &'a mut [bool] },
+    /// Each ray's closest hit by the tie rule, and how many hits were reported (what the
+    /// batched closest-hit query's choice of grouping reads, `crate::batch::mixing`; one add
+    /// per hit).
+    Closest { closest: Closest<'a>, reported: u64 },
+    /// Whether each ray hit anything; a ray ends at its first hit.
+    Any(Any<'a>),
     /// Every hit of ray `ray`, to `f(offset + positions[ray], hit)`.
     Every {
         offset: usize,
         positions: &'a [u32],
         f: &'a (dyn Fn(usize, Hit) + Sync),
     },
-    /// A visitor of the caller's.
-    Dyn(&'a mut dyn DynVisitor),
+    /// A visitor of the caller's, seeing the caller's triangle ids (`ids`) and, for a
+    /// sub-stream of the caller's stream, its ray ids (`rays[ray].1`).
+    Renamed {
+        ids: Ids<'a>,
+        rays: Option<&'a [(u32, u32)]>,
+        inner: &'a mut dyn DynVisitor,
+    },
 }
 
 /// The visitor of the stream engines and of the adapters that rename hits (a scene's
 /// instances, a structure over a reordered mesh): what to keep ([`Keep`]) chosen at run time,
-/// the renaming ([`Ids`], and for a sub-stream of the caller's stream its ray ids:
-/// `rays[ray].1`), and the constants of [`Visitor`] as parameters. A structure's walks are then
-/// compiled for a few such types instead of once per query and per adapter; the cost is a
-/// predictable branch per hit (an indirect call for [`Keep::Dyn`]).
+/// and the constants of [`Visitor`] as parameters. A structure's walks are then compiled for a
+/// few such types instead of once per query and per adapter; the cost is a predictable branch
+/// per hit (and an indirect call for [`Keep::Renamed`]).
 pub(crate) struct Sink<'a, const ENDS_RAYS: bool, const COUNTS_NODES: bool> {
-    ids: Ids<'a>,
-    rays: Option<&'a [(u32, u32)]>,
     keep: Keep<'a>,
 }
 
 impl<'a> Sink<'a, false, false> {
     /// Keeps each ray's closest hit in `best` (see [`Keep::Closest`]).
     pub(crate) fn closest(best: &'a mut [Hit]) -> Self {
-        Self::keeping(Keep::Closest { best, reported: 0 })
+        let closest = Closest { best };
+        Self {
+            keep: Keep::Closest {
+                closest,
+                reported: 0,
+            },
+        }
     }
 
     /// Reports every hit to `f` (see [`Keep::Every`]).
@@ -239,11 +240,13 @@ impl<'a> Sink<'a, false, false> {
         positions: &'a [u32],
         f: &'a (dyn Fn(usize, Hit) + Sync),
     ) -> Self {
-        Self::keeping(Keep::Every {
-            offset,
-            positions,
-            f,
-        })
+        Self {
+            keep: Keep::Every {
+                offset,
+                positions,
+                f,
+            },
+        }
     }
 
     /// Hits reported so far to a closest-hit sink (0 for the others).
@@ -258,16 +261,8 @@ impl<'a> Sink<'a, false, false> {
 impl<'a> Sink<'a, true, false> {
     /// Marks each ray occluded at its first hit and ends it (see [`Keep::Any`]).
     pub(crate) fn any(occluded: &'a mut [bool]) -> Self {
-        Self::keeping(Keep::Any { occluded })
-    }
-}
-
-impl<'a, const ENDS_RAYS: bool, const COUNTS_NODES: bool> Sink<'a, ENDS_RAYS, COUNTS_NODES> {
-    fn keeping(keep: Keep<'a>) -> Self {
         Self {
-            ids: Ids::Same,
-            rays: None,
-            keep,
+            keep: Keep::Any(Any { occluded }),
         }
     }
 }
@@ -280,35 +275,32 @@ impl<const ENDS_RAYS: bool, const COUNTS_NODES: bool> Visitor
 
     #[inline(always)]
     fn visit(&mut self, ray: u32, hit: Hit, tmax: &mut f32) {
-        let ray = self.rays.map_or(ray, |rays| rays[ray as usize].1);
-        let triangle = match self.ids {
-            Ids::Same => hit.triangle,
-            Ids::Offset(first) => first + hit.triangle,
-            Ids::Table(table) => table[hit.triangle as usize],
-        };
-        let hit = Hit { triangle, ..hit };
         match &mut self.keep {
-            Keep::Closest { best, reported } => {
+            Keep::Closest { closest, reported } => {
                 *reported += 1;
-                keep_closest(&mut best[ray as usize], hit, tmax);
+                closest.visit(ray, hit, tmax);
             }
-            Keep::Any { occluded } => {
-                occluded[ray as usize] = true;
-                *tmax = RAY_DONE;
-            }
+            Keep::Any(any) => any.visit(ray, hit, tmax),
             Keep::Every {
                 offset,
                 positions,
                 f,
             } => f(*offset + positions[ray as usize] as usize, hit),
-            Keep::Dyn(inner) => inner.visit_dyn(ray, hit, tmax),
+            Keep::Renamed { ids, rays, inner } => {
+                let ray = rays.map_or(ray, |rays| rays[ray as usize].1);
+                let triangle = match *ids {
+                    Ids::Offset(first) => first + hit.triangle,
+                    Ids::Table(table) => table[hit.triangle as usize],
+                };
+                inner.visit_dyn(ray, Hit { triangle, ..hit }, tmax);
+            }
         }
     }
 
     #[inline(always)]
     fn enter_node(&mut self, ray: u32) {
-        if COUNTS_NODES && let Keep::Dyn(inner) = &mut self.keep {
-            let ray = self.rays.map_or(ray, |rays| rays[ray as usize].1);
+        if COUNTS_NODES && let Keep::Renamed { rays, inner, .. } = &mut self.keep {
+            let ray = rays.map_or(ray, |rays| rays[ray as usize].1);
             inner.enter_node_dyn(ray);
         }
     }
@@ -329,12 +321,16 @@ pub(crate) fn with_renamed<V: Visitor, T: RenamedTask>(
     visitor: &mut V,
     task: T,
 ) -> T::Output {
-    let keep = Keep::Dyn(visitor);
+    let keep = Keep::Renamed {
+        ids,
+        rays,
+        inner: visitor,
+    };
     // Only the arm of `V`'s constants is compiled for it.
     match (V::ENDS_RAYS, V::COUNTS_NODES) {
-        (false, false) => task.run(&mut Sink::<false, false> { ids, rays, keep }),
-        (true, false) => task.run(&mut Sink::<true, false> { ids, rays, keep }),
-        (false, true) => task.run(&mut Sink::<false, true> { ids, rays, keep }),
-        (true, true) => task.run(&mut Sink::<true, true> { ids, rays, keep }),
+        (false, false) => task.run(&mut Sink::<false, false> { keep }),
+        (true, false) => task.run(&mut Sink::<true, false> { keep }),
+        (false, true) => task.run(&mut Sink::<false, true> { keep }),
+        (true, true) => task.run(&mut Sink::<true, true> { keep }),
     }
 }

@@ -8,8 +8,8 @@
 //! depend on the thread count, so nothing but speed changes.
 //!
 //! This is the one module that calls rayon: the rest of the crate asks it for parallel work
-//! ([`join`], [`workers`], [`for_each_chunk_pair`]), so none of it can start rayon's global
-//! pool behind the fallback's back.
+//! ([`join`], [`workers`]), so none of it can start rayon's global pool behind the fallback's
+//! back.
 
 use std::error::Error;
 use std::sync::OnceLock;
@@ -70,23 +70,4 @@ pub(crate) fn workers(count: usize, worker: impl Fn() + Sync) {
             scope.spawn(move |_| worker());
         }
     });
-}
-
-/// `f(a_part, b_part)` on matching parts of `part` elements of `a` and `b`, in parallel when
-/// threads are available.
-pub(crate) fn for_each_chunk_pair<T: Sync, U: Send>(
-    (a, b): (&[T], &mut [U]),
-    part: usize,
-    f: impl Fn(&[T], &mut [U]) + Sync,
-) {
-    use rayon::prelude::*;
-    if threads_available() {
-        a.par_chunks(part)
-            .zip(b.par_chunks_mut(part))
-            .for_each(|(a, b)| f(a, b));
-    } else {
-        a.chunks(part)
-            .zip(b.chunks_mut(part))
-            .for_each(|(a, b)| f(a, b));
-    }
 }

@@ -197,10 +197,8 @@ fn hit_distance<const KZ: usize>(
     [u, v, w]: [f32; 3],
     z: [f32; 3],
 ) -> Option<TriangleHit> {
+    // Never zero: three normal values of one sign (or, from `exact_edges`, not all zero).
     let det = u + v + w;
-    if det == 0.0 {
-        return None;
-    }
     // The paper scales the z coordinates by `sz = 1 / dir[kz]` before combining them; for a
     // short direction `sz` is huge and that product overflows although `t` itself is finite,
     // so the scale is applied last, to the distance along z.
@@ -213,7 +211,7 @@ fn hit_distance<const KZ: usize>(
             | underflows(terms[1], v, z[1])
             | underflows(terms[2], w, z[2]))
     {
-        return tiny_distance::<KZ>(ray, tri, tmax);
+        return in_f64::<KZ>(ray, tri, tmax);
     }
     let z_along = sum / det;
     let t = z_along * ray.shear.z;
@@ -234,10 +232,10 @@ fn hit_distance<const KZ: usize>(
 
 /// An edge function is zero or subnormal: zero ones (the ray on an edge or vertex) get their
 /// exact signs in `f64`; where one is too small for `f32` (a triangle and ray near the origin
-/// at a tiny scale) the whole test runs in `f64`. It recomputes the projection (the same
-/// `f32` operations, so the same values), so that the common path keeps nothing for it; and it
-/// is inlined, not called: a call inside the stream engines' loops cost them 6-10% (every
-/// vector register is the caller's to save).
+/// at a tiny scale) the whole test runs in `f64` ([`exact_test`]). It recomputes the projection
+/// (the same `f32` operations, so the same values) instead of taking it from the caller, and
+/// it is inlined: as a call inside the stream engines' loops it cost them 6-10%
+/// (every vector register is the caller's to save).
 #[inline(always)]
 fn exact_edges<const KZ: usize>(
     ray: &PreparedRay,
@@ -247,25 +245,58 @@ fn exact_edges<const KZ: usize>(
     let (xy, z) = project::<KZ>(ray, tri);
     let exact = edge_functions_f64(xy);
     if exact.iter().any(|e| below_normal(*e as f32) && *e != 0.0) {
-        return intersect_f64(ray, tri, tmax, exact, z);
+        return exact_test(ray, tri, tmax, exact, z);
     }
-    let [u, v, w] = exact.map(|e| e as f32);
-    if ((u < 0.0) | (v < 0.0) | (w < 0.0)) & ((u > 0.0) | (v > 0.0) | (w > 0.0)) {
+    let uvw = exact.map(|e| e as f32);
+    if mixed_signs(uvw) || uvw == [0.0; 3] {
         return None;
     }
-    hit_distance::<KZ>(ray, tri, tmax, [u, v, w], z)
+    hit_distance::<KZ>(ray, tri, tmax, uvw, z)
 }
 
-/// A distance term underflowed in `f32` (a tiny triangle seen from close by): the test again,
-/// in `f64`.
+/// The whole test in `f64`, for triangles whose `f32` edge functions or distance terms
+/// underflow: products of `f32` values are exact in `f64`, and its range holds them at every
+/// scale a mesh may have, so tiny meshes are as exact as any other.
 #[inline(always)]
-fn tiny_distance<const KZ: usize>(
+fn in_f64<const KZ: usize>(ray: &PreparedRay, tri: &[Vec3; 3], tmax: f32) -> Option<TriangleHit> {
+    let (xy, z) = project::<KZ>(ray, tri);
+    exact_test(ray, tri, tmax, edge_functions_f64(xy), z)
+}
+
+/// [`in_f64`] from the exact edge functions and the corners' distances along the dominant axis.
+#[inline(always)]
+fn exact_test(
     ray: &PreparedRay,
     tri: &[Vec3; 3],
     tmax: f32,
+    [u, v, w]: [f64; 3],
+    z: [f32; 3],
 ) -> Option<TriangleHit> {
-    let (xy, z) = project::<KZ>(ray, tri);
-    intersect_f64(ray, tri, tmax, edge_functions_f64(xy), z)
+    if mixed_signs([u, v, w]) {
+        return None;
+    }
+    let det = u + v + w;
+    if det == 0.0 {
+        return None;
+    }
+    let [za, zb, zc] = z.map(f64::from);
+    let t = ((u * za + v * zb + w * zc) / det * f64::from(ray.shear.z)) as f32;
+    if !in_range(t, ray.tmin, tmax) {
+        return None;
+    }
+    let hit = TriangleHit {
+        t,
+        u: (v / det) as f32,
+        v: (w / det) as f32,
+    };
+    agree_with_bounds(ray, tri, tmax, hit)
+}
+
+/// Some edge function negative and another positive: the ray passes outside the triangle.
+#[inline(always)]
+fn mixed_signs<T: PartialOrd + Default>([u, v, w]: [T; 3]) -> bool {
+    let zero = T::default();
+    ((u < zero) | (v < zero) | (w < zero)) & ((u > zero) | (v > zero) | (w > zero))
 }
 
 /// The edge functions recomputed in `f64`, where the products of `f32` values are exact, so
@@ -289,38 +320,6 @@ fn below_normal(x: f32) -> bool {
 #[inline(always)]
 fn underflows(product: f32, x: f32, y: f32) -> bool {
     below_normal(product) & (x != 0.0) & (y != 0.0)
-}
-
-/// The watertight test in `f64` from the exact edge functions `uvw` and the corners' distances
-/// along the dominant axis (`z`), for triangles whose `f32` edge functions or distance terms
-/// underflow: products of `f32` values are exact in `f64`, and its range holds them at every
-/// scale a mesh may have, so tiny meshes are as exact as any other.
-#[inline(always)]
-fn intersect_f64(
-    ray: &PreparedRay,
-    tri: &[Vec3; 3],
-    tmax: f32,
-    [u, v, w]: [f64; 3],
-    z: [f32; 3],
-) -> Option<TriangleHit> {
-    if ((u < 0.0) | (v < 0.0) | (w < 0.0)) & ((u > 0.0) | (v > 0.0) | (w > 0.0)) {
-        return None;
-    }
-    let det = u + v + w;
-    if det == 0.0 {
-        return None;
-    }
-    let [za, zb, zc] = z.map(f64::from);
-    let t = ((u * za + v * zb + w * zc) / det * f64::from(ray.shear.z)) as f32;
-    if !in_range(t, ray.tmin, tmax) {
-        return None;
-    }
-    let hit = TriangleHit {
-        t,
-        u: (v / det) as f32,
-        v: (w / det) as f32,
-    };
-    agree_with_bounds(ray, tri, tmax, hit)
 }
 
 /// `tmin <= t <= tmax` with a finite `t`; written so that a NaN `t` is out of range.

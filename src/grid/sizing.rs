@@ -117,13 +117,15 @@ pub(crate) fn cell_shape(mesh: &Mesh, live: &[u32], options: &GridOptions) -> [f
 }
 
 /// Slabs per axis for `triangles` triangles in `bounds` (non-empty), cells of relative sides
-/// `shape` ([`cell_shape`]), at most `max_cells` in all.
+/// `shape` ([`cell_shape`]), at most `max_cells` in all. `options` passed
+/// [`GridOptions::validate`].
 pub(crate) fn resolution(
     bounds: &Aabb,
     triangles: usize,
     shape: [f64; 3],
     options: &GridOptions,
 ) -> [u32; 3] {
+    debug_assert!(options.validate().is_ok(), "{options:?}");
     if let Some(dims) = options.resolution {
         return cap(dims, options.max_cells);
     }
@@ -160,7 +162,7 @@ pub(crate) fn resolution(
         }
         newly_flat.into_iter().for_each(|a| flat[a] = true);
     }
-    cap(dims, options.max_cells.max(1))
+    cap(dims, options.max_cells)
 }
 
 /// `dims` with its largest axis halved until the product is at most `max_cells`.

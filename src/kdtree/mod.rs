@@ -15,7 +15,7 @@ mod traverse;
 
 use std::sync::Arc;
 
-pub use node::MAX_INDEX;
+use node::MAX_INDEX;
 pub use traverse::KdScratch;
 
 use crate::accel::{Accel, Footprint, RayStream};

@@ -149,7 +149,7 @@ pub(crate) fn occluded_with<A: Accel>(accel: &A, ray: &Ray, kernel: Kernel) -> b
     occluded[0]
 }
 
-/// [`RayQueries::visit`] on `accel` (also [`RayQueries::for_each_hit_with`]'s engine).
+/// [`RayQueries::visit`] on `accel`.
 #[inline]
 pub(crate) fn visit<A: Accel, V: Visitor>(accel: &A, ray: &Ray, kernel: Kernel, visitor: &mut V) {
     if let Some(prepared) = PreparedRay::new(ray) {

@@ -27,15 +27,10 @@ use crate::scene::error::SceneError;
 /// Moves `accel`'s mesh to `vertices` and refits its boxes and the mesh's box; on error
 /// nothing changes. Only the binary AABB tree ([`crate::AccelKind::Aabb`]) can be refitted.
 pub(crate) fn refit_mesh(accel: &mut AnyAccel, vertices: Vec<Vec3>) -> Result<(), SceneError> {
-    let Some(tree) = accel.aabb_mut() else {
-        return Err(SceneError::NotRefittable {
-            kind: accel.kind().name(),
-        });
-    };
-    refit(tree, vertices)?;
-    let bounds = tree.mesh().bounds();
-    accel.set_mesh_bounds(bounds);
-    Ok(())
+    let kind = accel.kind().name();
+    accel
+        .with_aabb(|tree| refit(tree, vertices))
+        .unwrap_or(Err(SceneError::NotRefittable { kind }))
 }
 
 /// Moves `tree`'s mesh to `vertices` and refits its boxes; on error nothing changes.

@@ -22,6 +22,7 @@ use std::sync::Mutex;
 
 use crate::accel::Footprint;
 use crate::batch::BatchOptions;
+use crate::batch::chunks::for_each_chunk;
 use crate::geom::Ray;
 use crate::hit::Hit;
 use crate::query::{BatchError, BatchQueries, RayQueries};
@@ -230,11 +231,9 @@ pub fn occlusion_batch<W: BatchQueries + Sync>(
     let options = BatchOptions::default()
         .with_parallel(false)
         .with_min_batch(0);
-    let part = segments
-        .len()
-        .div_ceil(crate::parallel::thread_count(true))
-        .max(256);
-    crate::parallel::for_each_chunk_pair((segments, out), part, |rays, out| {
+    // Chunks of at least 256 segments over the threads (one walk per chunk, each on one thread).
+    let split = BatchOptions::default().with_min_chunk(256);
+    for_each_chunk(segments, out, (&split, segments.len()), |_, rays, out| {
         let hits = Mutex::new(Vec::<(usize, Hit)>::new());
         world.for_each_hit_batch_with(rays, &options, &|i, h| {
             hits.lock().unwrap_or_else(|e| e.into_inner()).push((i, h))
