@@ -29,7 +29,7 @@ usage: peers [--mesh FILE.obj | --scene NAME] [--rays N] [--sets A,B,..] [--seed
 
   --mesh FILE.obj  triangle mesh, treated as one object (default: data/stanford-bunny.obj of
                    the raybatch crate)
-  --scene NAME     instead, a built-in scene of `raybatch bench` (bunny, terrain, city, sparse)
+  --scene NAME     instead, a built-in scene of `raybatch bench` (bunny, terrain, city, level, sparse)
                    with its own ray sets: the city's line of sight is sightlines between
                    walkers in its streets, the game-AI case
   --rays N         rays per set (default 1000000; underscores allowed)
@@ -131,7 +131,7 @@ fn load(args: &Args) -> Result<(String, Mesh, SceneKind), String> {
     if let Some(name) = &args.scene {
         eprintln!("building the {name} scene");
         let scene = scenes::named(name)
-            .ok_or_else(|| format!("unknown scene {name:?} (bunny, terrain, city or sparse)"))?;
+            .ok_or_else(|| format!("unknown scene {name:?} (bunny, terrain, city, level or sparse)"))?;
         return Ok((format!("{name} (built-in scene)"), scene.mesh, scene.kind));
     }
     eprintln!("loading {}", args.mesh.display());

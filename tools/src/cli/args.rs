@@ -63,10 +63,11 @@ impl Command {
 const DEFAULT_LEAF: &str = "4";
 
 /// The built-in scenes `--scenes` accepts.
-pub const SCENE_NAMES: [&str; 5] = [
+pub const SCENE_NAMES: [&str; 6] = [
     "bunny",
     "terrain",
     "city",
+    "level",
     "sparse",
     crate::scene_bench::NAME,
 ];

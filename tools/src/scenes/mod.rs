@@ -1,14 +1,16 @@
 //! The built-in benchmark scenes and ray sets of `raybatch bench`.
 //!
-//! Three scenes with different shapes of difficulty: a scanned object (the Stanford bunny:
-//! small, dense, closed), a 1M-triangle terrain (huge, flat, thin boxes) and a procedural city
-//! (many separate boxes, lots of empty space). [`rays`] generates the ray sets to shoot at them.
+//! Four scenes with different shapes of difficulty: a scanned object (the Stanford bunny:
+//! small, dense, closed), a 1M-triangle terrain (huge, flat, thin boxes), a procedural city
+//! (many separate boxes, lots of empty space) and a game level (large ground triangles under
+//! thousands of boxes, short sightlines that are mostly blocked). [`rays`] generates the ray sets to shoot at them.
 //! Everything is deterministic: the same seed gives the same scene and rays on every machine
 //! (see [`rng`] for why that needs our own generator).
 
 mod city;
 pub mod closed;
 pub mod instanced;
+mod level;
 pub mod rays;
 pub mod rng;
 mod sparse;
@@ -23,7 +25,7 @@ use raybatch::{Aabb, Mesh};
 /// A named mesh and what kind of scene it is.
 #[derive(Clone, Debug)]
 pub struct Scene {
-    /// `bunny`, `terrain`, `city`: what `raybatch bench --scenes` calls it.
+    /// `bunny`, `terrain`, `city`, `level`: what `raybatch bench --scenes` calls it.
     pub name: &'static str,
     /// The triangles.
     pub mesh: Mesh,
@@ -40,6 +42,9 @@ pub enum SceneKind {
     Terrain,
     /// Buildings on a ground plane; sightlines between pedestrians in the streets.
     City,
+    /// A game level: buildings and clutter on a ground grid; short sightlines between agents
+    /// standing anywhere in the open.
+    Level,
 }
 
 /// Cells per side of the built-in terrain: `2 * 708^2 = 1,002,528` triangles, about a million.
@@ -54,6 +59,7 @@ pub const BUILTIN_SPARSE_CLUSTERS: u32 = 200;
 const TERRAIN_SEED: u64 = 0x7e44_a1b0;
 const CITY_SEED: u64 = 0xc1_7e5;
 const SPARSE_SEED: u64 = 0x5ba_55e;
+const LEVEL_SEED: u64 = 0x1e_7e1;
 
 /// The Stanford bunny (69,451 triangles), embedded in the binary.
 pub fn bunny() -> Scene {
@@ -99,14 +105,27 @@ pub fn sparse(clusters: u32) -> Scene {
     }
 }
 
-/// The built-in scene called `name` (`bunny`, `terrain`, `city` or `sparse`), as `raybatch
-/// bench --scenes` names them; `None` for another name.
+/// A game level: a 640 m square of flat ground made of 10 m cells (8,192 large triangles), a
+/// lattice of 20 m lots with one axis-aligned box building each (11-18 m wide, 4-20 m high; one
+/// lot in ten is an empty square) and `clutter` boxes of 0.6-6 m turned about the vertical,
+/// anywhere; 12 triangles per box.
+pub fn level(clutter: u32) -> Scene {
+    Scene {
+        name: "level",
+        mesh: level::mesh(clutter, LEVEL_SEED),
+        kind: SceneKind::Level,
+    }
+}
+
+/// The built-in scene called `name` (`bunny`, `terrain`, `city`, `level` or `sparse`), as
+/// `raybatch bench --scenes` names them; `None` for another name.
 pub fn named(name: &str) -> Option<Scene> {
     Some(match name {
         "bunny" => bunny(),
         "terrain" => terrain(BUILTIN_TERRAIN_CELLS),
         "city" => city(BUILTIN_CITY_BLOCKS),
         "sparse" => sparse(BUILTIN_SPARSE_CLUSTERS),
+        "level" => level(level::BUILTIN_CLUTTER),
         _ => return None,
     })
 }
@@ -123,17 +142,19 @@ pub fn from_arg(arg: Option<&str>) -> Scene {
             kind: SceneKind::Object,
         },
         Some(name) => named(name).unwrap_or_else(|| {
-            panic!("unknown scene {name}: bunny, terrain, city, sparse or a .obj file")
+            panic!("unknown scene {name}: bunny, terrain, city, level, sparse or a .obj file")
         }),
     }
 }
 
-/// The scenes `raybatch bench` runs: the bunny, the 1M-triangle terrain and the city.
+/// The scenes `raybatch bench` runs: the bunny, the 1M-triangle terrain, the city and the
+/// game level.
 pub fn builtin() -> Vec<Scene> {
     vec![
         bunny(),
         terrain(BUILTIN_TERRAIN_CELLS),
         city(BUILTIN_CITY_BLOCKS),
+        level(level::BUILTIN_CLUTTER),
     ]
 }
 
@@ -193,7 +214,8 @@ mod tests {
     fn builtin_scenes_have_their_sizes() {
         let scenes = builtin();
         let names: Vec<_> = scenes.iter().map(|s| s.name).collect();
-        assert_eq!(names, ["bunny", "terrain", "city"]);
+        assert_eq!(names, ["bunny", "terrain", "city", "level"]);
+        assert_eq!(scenes[3].mesh.triangle_count(), 45_812);
         assert_eq!(scenes[1].mesh.triangle_count(), 1_002_528);
         let city_triangles = scenes[2].mesh.triangle_count();
         assert!(

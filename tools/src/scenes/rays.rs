@@ -6,12 +6,13 @@
 //! early exits), and line-of-sight segments (any-hit queries, mixed clear and blocked).
 //! Everything derives from the seed through [`SplitMix64`], so runs are comparable everywhere.
 
-use raybatch::glam::Vec3;
-use raybatch::{Aabb, Mesh, Ray};
+use raybatch::glam::{Vec2, Vec3};
+use raybatch::{AccelKind, AnyAccel, Aabb, BuildOptions, Mesh, Ray, RayQueries};
 use rayon::prelude::*;
 
 use super::SceneKind;
 use super::city::{self, Street};
+use super::level;
 use super::rng::SplitMix64;
 use super::terrain::TerrainGrid;
 
@@ -76,6 +77,12 @@ const TERRAIN_SIGHT_HEIGHT: f32 = 2.0;
 /// Chance that the second end of a city sightline is on the same street as the first, which
 /// keeps a good share of the segments clear.
 const SAME_STREET: f32 = 0.3;
+/// Heights of a level's agents' eyes above its ground (crouching to standing).
+const LEVEL_EYE: (f32, f32) = (1.0, 2.0);
+/// Lengths of a level's sightlines (horizontal distance between the agents).
+const LEVEL_SIGHT: (f32, f32) = (20.0, 80.0);
+/// Draws of an agent's place before giving up on finding open ground.
+const LEVEL_TRIES: usize = 64;
 /// `tan(22.5 deg)`, half the 45 degree vertical field of view, as a constant (no `tan` call: see
 /// the [`super::rng`] docs on reproducibility).
 const TAN_HALF_FOV: f32 = 0.414_213_57;
@@ -85,9 +92,10 @@ const TAN_HALF_FOV: f32 = 0.414_213_57;
 /// depend on the number of threads.
 ///
 /// The set only reads `mesh`'s bounds, except `LineOfSight` on a terrain built by
-/// [`super::terrain()`], whose endpoints follow the triangulated surface. A mesh of another shape
-/// with `kind` `Terrain` falls back to the `Object` sightlines; with `kind` `City` it gets points
-/// at agent height on the street grid a city of its size would have. An empty mesh gets the
+/// [`super::terrain()`], whose endpoints follow the triangulated surface, and `LineOfSight` in a
+/// `Level`, whose endpoints are kept out of the mesh's boxes. A mesh of another shape with `kind`
+/// `Terrain` falls back to the `Object` sightlines; with `kind` `City` it gets points at agent
+/// height on the street grid a city of its size would have. An empty mesh gets the
 /// rays of the box `[-1, 1]^3`.
 pub fn generate(set: RaySet, mesh: &Mesh, kind: SceneKind, count: usize, seed: u64) -> Vec<Ray> {
     // One stream per set, so the sets generated with one seed are unrelated.
@@ -186,8 +194,8 @@ impl Camera {
                 Self::look_at(eye, c)
             }
             // From just outside a corner, between the street and the roofs, looking across the
-            // city and slightly down.
-            SceneKind::City => {
+            // city (or level) and slightly down.
+            SceneKind::City | SceneKind::Level => {
                 let eye_height = min.y + 0.12 * e.y;
                 let eye = Vec3::new(min.x - 0.02 * e.x, eye_height, min.z - 0.02 * e.z);
                 Self::look_at(eye, Vec3::new(c.x, min.y + 0.05 * e.y, c.z))
@@ -240,6 +248,10 @@ fn line_of_sight(
             let blocks = city::blocks_from_extent(bounds.extent().x);
             per_ray(count, stream, |r| city_sightline(r, blocks))
         }
+        (SceneKind::Level, _) => {
+            let open = OpenGround::new(mesh, bounds);
+            per_ray(count, stream, |r| open.sightline(r))
+        }
         _ => per_ray(count, stream, |r| {
             segment(r, |r| object_sight_point(r, bounds))
         }),
@@ -291,6 +303,65 @@ fn city_sightline(rng: &mut SplitMix64, blocks: u32) -> Ray {
     }
 }
 
+/// Where agents can stand in a level: points `LEVEL_EYE` above its ground with nothing above
+/// them (not inside a building or a crate), found with a tree over the level.
+struct OpenGround {
+    tree: AnyAccel,
+    bounds: Aabb,
+}
+
+impl OpenGround {
+    fn new(mesh: &Mesh, bounds: &Aabb) -> Self {
+        let tree = AccelKind::DEFAULT
+            .build(mesh.clone(), &BuildOptions::default())
+            .expect("a mesh with valid bounds builds with the default options");
+        Self {
+            tree,
+            bounds: *bounds,
+        }
+    }
+
+    /// A segment from an agent to another `LEVEL_SIGHT` away in a random direction; both ends
+    /// in the open and inside the level.
+    fn sightline(&self, rng: &mut SplitMix64) -> Ray {
+        loop {
+            let a = self.open_point(rng, |r| {
+                Vec2::new(
+                    r.range_f32(self.bounds.min.x, self.bounds.max.x),
+                    r.range_f32(self.bounds.min.z, self.bounds.max.z),
+                )
+            });
+            let b = self.open_point(rng, |r| {
+                let d = Vec2::new(r.range_f32(-1.0, 1.0), r.range_f32(-1.0, 1.0));
+                let step = d.normalize_or(Vec2::X) * r.range_f32(LEVEL_SIGHT.0, LEVEL_SIGHT.1);
+                Vec2::new(a.x, a.z) + step
+            });
+            let ray = Ray::segment(a, b);
+            if ray.is_valid() {
+                return ray;
+            }
+        }
+    }
+
+    /// A point `LEVEL_EYE` above the ground at a place from `place`, redrawn until it is in
+    /// the open and inside the level (after `LEVEL_TRIES` draws, the last one is kept: a mesh
+    /// that is roofed everywhere still gets its rays).
+    fn open_point(&self, rng: &mut SplitMix64, place: impl Fn(&mut SplitMix64) -> Vec2) -> Vec3 {
+        let (min, max) = (self.bounds.min, self.bounds.max);
+        let mut point = Vec3::ZERO;
+        for _ in 0..LEVEL_TRIES {
+            let at = place(rng);
+            let height = rng.range_f32(LEVEL_EYE.0, LEVEL_EYE.1);
+            point = Vec3::new(at.x, level::GROUND + height, at.y);
+            let inside = point.cmpge(min).all() && point.cmple(max).all();
+            if inside && !self.tree.occluded(&Ray::new(point, Vec3::Y)) {
+                break;
+            }
+        }
+        point
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use raybatch::Kernel;
@@ -300,7 +371,12 @@ mod tests {
     use crate::scenes::{self, Scene};
 
     fn small_scenes() -> Vec<Scene> {
-        vec![scenes::bunny(), scenes::terrain(24), scenes::city(4)]
+        vec![
+            scenes::bunny(),
+            scenes::terrain(24),
+            scenes::city(4),
+            scenes::level(80),
+        ]
     }
 
     #[test]
@@ -402,6 +478,26 @@ mod tests {
     }
 
     #[test]
+    fn level_sightlines_are_short_open_and_mostly_blocked() {
+        let scene = scenes::level(2200);
+        let tree = AccelKind::DEFAULT
+            .build(scene.mesh.clone(), &BuildOptions::default())
+            .unwrap();
+        let rays = generate(RaySet::LineOfSight, &scene.mesh, scene.kind, 2000, 8);
+        for r in &rays {
+            for p in [r.origin, r.at(1.0)] {
+                let eye = p.y - level::GROUND;
+                assert!((LEVEL_EYE.0..=LEVEL_EYE.1).contains(&eye), "{p}");
+                assert!(!tree.occluded(&Ray::new(p, Vec3::Y)), "{p} is under a roof");
+            }
+            let run = Vec2::new(r.dir.x, r.dir.z).length();
+            assert!((LEVEL_SIGHT.0..=LEVEL_SIGHT.1 + 1e-3).contains(&run), "{run}");
+        }
+        let share = blocked_share(&scene.mesh, &rays);
+        assert!((0.9..0.99).contains(&share), "{share}");
+    }
+
+    #[test]
     fn terrain_sightlines_start_above_the_surface_and_are_mixed() {
         let scene = scenes::terrain(24);
         let grid = TerrainGrid::from_mesh(&scene.mesh).unwrap();
@@ -421,7 +517,12 @@ mod tests {
         let empty = Mesh::default();
         let point = Mesh::new(vec![Vec3::ONE], vec![[0, 0, 0]]).unwrap();
         for mesh in [&empty, &point] {
-            for kind in [SceneKind::Object, SceneKind::Terrain, SceneKind::City] {
+            for kind in [
+                SceneKind::Object,
+                SceneKind::Terrain,
+                SceneKind::City,
+                SceneKind::Level,
+            ] {
                 for set in RaySet::ALL {
                     let rays = generate(set, mesh, kind, 50, 1);
                     assert!(rays.iter().all(Ray::is_valid), "{set} {kind:?}");
