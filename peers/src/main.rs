@@ -29,9 +29,10 @@ usage: peers [--mesh FILE.obj | --scene NAME] [--rays N] [--sets A,B,..] [--seed
 
   --mesh FILE.obj  triangle mesh, treated as one object (default: data/stanford-bunny.obj of
                    the raybatch crate)
-  --scene NAME     instead, a built-in scene of `raybatch bench` (bunny, terrain, city, level, sparse)
-                   with its own ray sets: the city's line of sight is sightlines between
-                   walkers in its streets, the game-AI case
+  --scene NAME     instead, a built-in scene of `raybatch bench` (bunny, terrain, city, level,
+                   sparse) with its own ray sets: the level's line of sight is the game-AI
+                   case (agents in the open, 20-80 m apart, mostly blocked), the city's is
+                   sightlines between walkers in its streets
   --rays N         rays per set (default 1000000; underscores allowed)
   --sets A,B,..    ray sets of raybatch_tools::scenes (default incoherent,outside-in,line-of-sight;
                    also camera, short); line-of-sight also times any-hit queries
@@ -130,8 +131,9 @@ fn main() -> ExitCode {
 fn load(args: &Args) -> Result<(String, Mesh, SceneKind), String> {
     if let Some(name) = &args.scene {
         eprintln!("building the {name} scene");
-        let scene = scenes::named(name)
-            .ok_or_else(|| format!("unknown scene {name:?} (bunny, terrain, city, level or sparse)"))?;
+        let scene = scenes::named(name).ok_or_else(|| {
+            format!("unknown scene {name:?} (bunny, terrain, city, level or sparse)")
+        })?;
         return Ok((format!("{name} (built-in scene)"), scene.mesh, scene.kind));
     }
     eprintln!("loading {}", args.mesh.display());

@@ -65,7 +65,11 @@ fn building(rng: &mut SplitMix64, lot_min: Vec2) -> Aabb {
         rng.range_f32(BUILDING_SHARE.0, BUILDING_SHARE.1),
         rng.range_f32(BUILDING_SHARE.0, BUILDING_SHARE.1),
     ) * LOT;
-    let lo = lot_min + Vec2::new(rng.range_f32(0.0, LOT - size.x), rng.range_f32(0.0, LOT - size.y));
+    let lo = lot_min
+        + Vec2::new(
+            rng.range_f32(0.0, LOT - size.x),
+            rng.range_f32(0.0, LOT - size.y),
+        );
     let hi = lo + size;
     let height = rng.range_f32(BUILDING_HEIGHT.0, BUILDING_HEIGHT.1);
     Aabb::new(
@@ -133,7 +137,10 @@ mod tests {
         let buildings = (m.triangle_count() - ground) / 12 - 20;
         assert_eq!(m.triangle_count(), ground + 12 * (buildings + 20));
         let lots = (SIDE / LOT) as usize;
-        assert!((lots * lots * 8 / 10..lots * lots).contains(&buildings), "{buildings}");
+        assert!(
+            (lots * lots * 8 / 10..lots * lots).contains(&buildings),
+            "{buildings}"
+        );
         let b = m.bounds();
         assert_eq!((b.min.x, b.min.z, b.min.y), (0.0, 0.0, FOUNDATION));
         assert_eq!((b.max.x, b.max.z), (SIDE, SIDE));

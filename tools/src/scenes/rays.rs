@@ -7,7 +7,7 @@
 //! Everything derives from the seed through [`SplitMix64`], so runs are comparable everywhere.
 
 use raybatch::glam::{Vec2, Vec3};
-use raybatch::{AccelKind, AnyAccel, Aabb, BuildOptions, Mesh, Ray, RayQueries};
+use raybatch::{Aabb, AccelKind, AnyAccel, BuildOptions, Mesh, Ray, RayQueries};
 use rayon::prelude::*;
 
 use super::SceneKind;
@@ -491,7 +491,10 @@ mod tests {
                 assert!(!tree.occluded(&Ray::new(p, Vec3::Y)), "{p} is under a roof");
             }
             let run = Vec2::new(r.dir.x, r.dir.z).length();
-            assert!((LEVEL_SIGHT.0..=LEVEL_SIGHT.1 + 1e-3).contains(&run), "{run}");
+            assert!(
+                (LEVEL_SIGHT.0..=LEVEL_SIGHT.1 + 1e-3).contains(&run),
+                "{run}"
+            );
         }
         let share = blocked_share(&scene.mesh, &rays);
         assert!((0.9..0.99).contains(&share), "{share}");
