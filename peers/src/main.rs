@@ -131,9 +131,8 @@ fn main() -> ExitCode {
 fn load(args: &Args) -> Result<(String, Mesh, SceneKind), String> {
     if let Some(name) = &args.scene {
         eprintln!("building the {name} scene");
-        let scene = scenes::named(name).ok_or_else(|| {
-            format!("unknown scene {name:?} (bunny, terrain, city, level or sparse)")
-        })?;
+        let scene = scenes::named(name)
+            .ok_or_else(|| format!("unknown scene {name:?} ({})", scenes::NAMES.join(", ")))?;
         return Ok((format!("{name} (built-in scene)"), scene.mesh, scene.kind));
     }
     eprintln!("loading {}", args.mesh.display());

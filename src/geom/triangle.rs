@@ -19,6 +19,8 @@
 //! that agree with the conservative box test of the triangle's bounds (see
 //! `agree_with_bounds`), which is what lets every traversal order give the same answer.
 
+use std::ops::{Mul, Sub};
+
 use glam::{DVec3, Vec3};
 
 use super::aabb::box_entry;
@@ -181,9 +183,12 @@ fn project<const KZ: usize>(ray: &PreparedRay, tri: &[Vec3; 3]) -> ([f32; 6], [f
     (xy, [a[kz], b[kz], c[kz]])
 }
 
-/// The edge functions `u, v, w` of the projected corners.
+/// The edge functions `u, v, w` of the projected corners, in `f32` or (exactly) in `f64`.
 #[inline(always)]
-fn edge_functions([ax, ay, bx, by, cx, cy]: [f32; 6]) -> [f32; 3] {
+fn edge_functions<T>([ax, ay, bx, by, cx, cy]: [T; 6]) -> [T; 3]
+where
+    T: Copy + Mul<Output = T> + Sub<Output = T>,
+{
     [cx * by - cy * bx, ax * cy - ay * cx, bx * ay - by * ax]
 }
 
@@ -303,8 +308,7 @@ fn mixed_signs<T: PartialOrd + Default>([u, v, w]: [T; 3]) -> bool {
 /// their signs are exact on edges and vertices.
 #[inline(always)]
 fn edge_functions_f64(p: [f32; 6]) -> [f64; 3] {
-    let [ax, ay, bx, by, cx, cy] = p.map(f64::from);
-    [cx * by - cy * bx, ax * cy - ay * cx, bx * ay - by * ax]
+    edge_functions(p.map(f64::from))
 }
 
 /// Below this, a distance's sum of terms is checked for terms that underflowed (2^-100).

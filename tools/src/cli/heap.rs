@@ -3,9 +3,10 @@
 //! to the bytes the finished structure keeps (`Footprint::heap_bytes`).
 //!
 //! The counters are relaxed atomics: an allocation costs two atomic adds more, which the timed
-//! queries pay only for their few allocations per batch (none per ray). The high mark is exact for one thread and
-//! for threads that allocate in turn; threads that allocate at the same moment may each raise it
-//! to a value that was never in use at once, by at most the size of one allocation per thread.
+//! queries pay only for their few allocations per batch (none per ray). The high mark is exact
+//! for one thread and for threads that allocate in turn; threads that allocate at the same
+//! moment may each raise it to a value that was never in use at once, by at most the size of
+//! one allocation per thread.
 
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::sync::atomic::{AtomicUsize, Ordering::Relaxed};

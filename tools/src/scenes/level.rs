@@ -10,6 +10,7 @@ use raybatch::{Aabb, Mesh};
 
 use super::push_box;
 use super::rng::SplitMix64;
+use super::terrain;
 
 /// Side of the square level along `x` and `z`, in metres.
 pub(crate) const SIDE: f32 = 640.0;
@@ -78,28 +79,20 @@ fn building(rng: &mut SplitMix64, lot_min: Vec2) -> Aabb {
     )
 }
 
-/// The ground `[0, SIDE]^2` at [`GROUND`]: `CELLS^2` square cells of two triangles facing up.
+/// The ground `[0, SIDE]^2` at [`GROUND`]: `CELLS^2` square cells of two triangles facing up,
+/// triangulated as the terrain's grid.
 fn ground() -> (Vec<Vec3>, Vec<[u32; 3]>) {
     let cell = SIDE / CELLS as f32;
     let row = CELLS + 1;
     let vertices = (0..row)
         .flat_map(|z| (0..row).map(move |x| Vec3::new(x as f32 * cell, GROUND, z as f32 * cell)))
         .collect();
-    let mut triangles = Vec::with_capacity(2 * (CELLS * CELLS) as usize);
-    for z in 0..CELLS {
-        for x in 0..CELLS {
-            let v00 = z * row + x;
-            let (v10, v01, v11) = (v00 + 1, v00 + row, v00 + row + 1);
-            triangles.push([v00, v01, v10]);
-            triangles.push([v10, v01, v11]);
-        }
-    }
-    (vertices, triangles)
+    (vertices, terrain::triangles(CELLS))
 }
 
 /// A piece of clutter: a box turned about `+y` by a random angle, standing on the ground
-/// anywhere in the level. The turn comes from a random direction normalised with `sqrt` (no
-/// `sin`/`cos`, whose last bit differs between platforms; see [`super::rng`]).
+/// anywhere in the level. The turn comes from [`SplitMix64::unit_vector_2d`] (no `sin`/`cos`,
+/// whose last bit differs between platforms; see [`super::rng`]).
 fn push_turned_box(vertices: &mut Vec<Vec3>, triangles: &mut Vec<[u32; 3]>, rng: &mut SplitMix64) {
     let half = Vec3::new(
         rng.range_f32(CLUTTER_SIDE.0, CLUTTER_SIDE.1),
@@ -112,12 +105,7 @@ fn push_turned_box(vertices: &mut Vec<Vec3>, triangles: &mut Vec<[u32; 3]>, rng:
         0.5 * FOUNDATION + half.y,
         rng.range_f32(margin, SIDE - margin),
     );
-    let axis = loop {
-        let v = Vec2::new(rng.range_f32(-1.0, 1.0), rng.range_f32(-1.0, 1.0));
-        if (0.01..=1.0).contains(&v.length_squared()) {
-            break v.normalize();
-        }
-    };
+    let axis = rng.unit_vector_2d();
     let first = vertices.len();
     push_box(vertices, triangles, Aabb::new(-half, half));
     for v in &mut vertices[first..] {

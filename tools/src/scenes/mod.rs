@@ -3,7 +3,8 @@
 //! Four scenes with different shapes of difficulty: a scanned object (the Stanford bunny:
 //! small, dense, closed), a 1M-triangle terrain (huge, flat, thin boxes), a procedural city
 //! (many separate boxes, lots of empty space) and a game level (large ground triangles under
-//! thousands of boxes, short sightlines that are mostly blocked). [`rays`] generates the ray sets to shoot at them.
+//! thousands of boxes, short sightlines that are mostly blocked). [`rays`] generates the ray
+//! sets to shoot at them.
 //! Everything is deterministic: the same seed gives the same scene and rays on every machine
 //! (see [`rng`] for why that needs our own generator).
 
@@ -117,8 +118,10 @@ pub fn level(clutter: u32) -> Scene {
     }
 }
 
-/// The built-in scene called `name` (`bunny`, `terrain`, `city`, `level` or `sparse`), as
-/// `raybatch bench --scenes` names them; `None` for another name.
+/// The names [`named`] knows, as `raybatch bench --scenes` names them.
+pub const NAMES: [&str; 5] = ["bunny", "terrain", "city", "level", "sparse"];
+
+/// The built-in scene called `name` (one of [`NAMES`]); `None` for another name.
 pub fn named(name: &str) -> Option<Scene> {
     Some(match name {
         "bunny" => bunny(),
@@ -141,9 +144,8 @@ pub fn from_arg(arg: Option<&str>) -> Scene {
             mesh: raybatch::Mesh::load_obj(path).expect("a readable OBJ file"),
             kind: SceneKind::Object,
         },
-        Some(name) => named(name).unwrap_or_else(|| {
-            panic!("unknown scene {name}: bunny, terrain, city, level, sparse or a .obj file")
-        }),
+        Some(name) => named(name)
+            .unwrap_or_else(|| panic!("unknown scene {name}: {} or a .obj file", NAMES.join(", "))),
     }
 }
 
@@ -188,6 +190,14 @@ mod tests {
         assert_eq!(b.kind, SceneKind::Object);
         let bounds = b.mesh.bounds();
         assert!(!bounds.is_empty() && bounds.extent().min_element() > 0.0);
+    }
+
+    #[test]
+    fn named_knows_exactly_its_names() {
+        for name in NAMES {
+            assert_eq!(named(name).map(|s| s.name), Some(name));
+        }
+        assert!(named("nope").is_none());
     }
 
     #[test]

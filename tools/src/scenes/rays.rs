@@ -332,8 +332,7 @@ impl OpenGround {
                 )
             });
             let b = self.open_point(rng, |r| {
-                let d = Vec2::new(r.range_f32(-1.0, 1.0), r.range_f32(-1.0, 1.0));
-                let step = d.normalize_or(Vec2::X) * r.range_f32(LEVEL_SIGHT.0, LEVEL_SIGHT.1);
+                let step = r.unit_vector_2d() * r.range_f32(LEVEL_SIGHT.0, LEVEL_SIGHT.1);
                 Vec2::new(a.x, a.z) + step
             });
             let ray = Ray::segment(a, b);

@@ -5,7 +5,7 @@
 //! integer arithmetic, `+`, `*`, `/` and `sqrt` are used (all exactly rounded by IEEE 754), never
 //! `sin`/`cos`/`exp`, whose results may differ by an ulp between math libraries.
 
-use raybatch::glam::Vec3;
+use raybatch::glam::{Vec2, Vec3};
 
 /// The SplitMix64 generator (Steele, Lea, Flood 2014; the seeder of `xoshiro`): 64 bits of state,
 /// full period, statistically good enough for scenes and rays, reproducible everywhere.
@@ -67,6 +67,17 @@ impl SplitMix64 {
             );
             let len2 = v.length_squared();
             // The lower bound keeps the normalisation far from dividing by (almost) zero.
+            if (1e-6..=1.0).contains(&len2) {
+                return v / len2.sqrt();
+            }
+        }
+    }
+
+    /// A unit vector uniform on the circle, by the same rejection as [`Self::unit_vector`].
+    pub fn unit_vector_2d(&mut self) -> Vec2 {
+        loop {
+            let v = Vec2::new(self.range_f32(-1.0, 1.0), self.range_f32(-1.0, 1.0));
+            let len2 = v.length_squared();
             if (1e-6..=1.0).contains(&len2) {
                 return v / len2.sqrt();
             }
@@ -150,5 +161,23 @@ mod tests {
         }
         // The mean of uniform unit vectors tends to zero (std of each component ~ 1/sqrt(3n)).
         assert!((sum / n as f32).length() < 0.03, "{sum}");
+    }
+
+    #[test]
+    fn unit_vectors_2d_are_unit_and_cover_the_circle() {
+        let mut r = SplitMix64::new(9);
+        let (n, mut sum) = (20_000, Vec2::ZERO);
+        // Uniform in angle: half the vectors lie within 22.5 degrees of an axis (normalising a
+        // point of the square instead would put only about 41% there).
+        let mut near_axis = 0;
+        for _ in 0..n {
+            let v = r.unit_vector_2d();
+            assert!((v.length() - 1.0).abs() < 1e-5, "{v}");
+            sum += v;
+            near_axis += usize::from(v.abs().max_element() > 0.923_879_5);
+        }
+        assert!((sum / n as f32).length() < 0.03, "{sum}");
+        let share = near_axis as f32 / n as f32;
+        assert!((0.48..0.52).contains(&share), "{share}");
     }
 }

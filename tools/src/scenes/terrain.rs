@@ -52,7 +52,7 @@ fn vertices(n: u32, seed: u64) -> Vec<Vec3> {
 
 /// Two triangles per cell, split along the `(i+1, j)`–`(i, j+1)` diagonal, wound so their normals
 /// point up (`+y`).
-fn triangles(n: u32) -> Vec<[u32; 3]> {
+pub(crate) fn triangles(n: u32) -> Vec<[u32; 3]> {
     let side = n + 1;
     let mut out = Vec::with_capacity(2 * n as usize * n as usize);
     for j in 0..n {
