@@ -58,6 +58,21 @@ where
     }
 }
 
+/// `(0..count).map(item)` collected in order, computed on rayon's pool when `parallel` and
+/// threads are available.
+pub(crate) fn map<T: Send>(
+    parallel: bool,
+    count: usize,
+    item: impl Fn(usize) -> T + Sync + Send,
+) -> Vec<T> {
+    use rayon::prelude::*;
+    if enabled(parallel) {
+        (0..count).into_par_iter().map(item).collect()
+    } else {
+        (0..count).map(item).collect()
+    }
+}
+
 /// Runs `worker` as `count` tasks at once in the current pool (each runs until it finds no
 /// more work), or once on the calling thread when `count` is 1 or threads are not available.
 pub(crate) fn workers(count: usize, worker: impl Fn() + Sync) {

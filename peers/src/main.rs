@@ -6,7 +6,8 @@
 //! hits are checked against raybatch's default structure (`AccelKind::DEFAULT`, `cast_ray`)
 //! and a Markdown table of build time, query time, Mrays/s and the speed relative to Embree's
 //! `rtcIntersect1` goes to stdout; progress goes to stderr. `--race R` times only the
-//! headline rows, taking turns (`raybatch_peers::race`).
+//! headline rows, taking turns (`raybatch_peers::race`); `--build-race R` times only the
+//! builds, on every core (`raybatch_peers::build_race`).
 //!
 //! ```text
 //! bash peers/setup.sh && cargo run --release -p raybatch-peers -- --rays 1000000
@@ -25,7 +26,7 @@ use raybatch_peers::{embree_ffi, race, rays};
 
 const USAGE: &str = "\
 usage: peers [--mesh FILE.obj | --scene NAME] [--rays N] [--sets A,B,..] [--seed S] [--runs R]
-             [--race R]
+             [--race R | --build-race R]
 
   --mesh FILE.obj  triangle mesh, treated as one object (default: data/stanford-bunny.obj of
                    the raybatch crate)
@@ -42,7 +43,10 @@ usage: peers [--mesh FILE.obj | --scene NAME] [--rays N] [--sets A,B,..] [--seed
                    raybatch bvh4 / bvh8 / bvh8q per ray, batched and in calls of 4096),
                    built once per ray set and timed in turn for R rounds (R at least the
                    rows' count lets each go first once), best pass kept: ratios that hold on
-                   a machine whose speed drifts; --runs is not used";
+                   a machine whose speed drifts; --runs is not used
+  --build-race R   instead of any ray, the build on every core: Embree at qualities MEDIUM
+                   (its default) and HIGH against raybatch's default parallel build of
+                   AccelKind::for_mesh, bvh8, bvh4 and aabb, in turn for R rounds, best kept";
 
 struct Args {
     mesh: PathBuf,
@@ -54,6 +58,8 @@ struct Args {
     runs: usize,
     /// Rounds of the race, if one was asked for (`--race R`).
     race: Option<usize>,
+    /// Rounds of the build race, if one was asked for (`--build-race R`).
+    build_race: Option<usize>,
 }
 
 fn parse_args() -> Result<Args, String> {
@@ -68,6 +74,7 @@ fn parse_args() -> Result<Args, String> {
         seed: 1,
         runs: 3,
         race: None,
+        build_race: None,
     };
     let mut it = std::env::args().skip(1);
     while let Some(flag) = it.next() {
@@ -97,6 +104,7 @@ fn parse_args() -> Result<Args, String> {
             "--seed" => args.seed = number(&value)?,
             "--runs" => args.runs = (number(&value)? as usize).max(1),
             "--race" => args.race = Some((number(&value)? as usize).max(1)),
+            "--build-race" => args.build_race = Some((number(&value)? as usize).max(1)),
             _ => return Err(format!("unknown argument {flag}")),
         }
     }
@@ -143,6 +151,15 @@ fn load(args: &Args) -> Result<(String, Mesh, SceneKind), String> {
 fn run(args: &Args) -> Result<(), String> {
     let (name, mesh, scene) = load(args)?;
     let mesh = Arc::new(mesh);
+    if let Some(rounds) = args.build_race {
+        println!(
+            "# Builds on every core\n\nMesh `{name}` ({} triangles); best of {rounds} rounds \
+             taking turns.\n",
+            mesh.triangle_count()
+        );
+        println!("{}", raybatch_peers::build_race::build_race(&mesh, rounds)?);
+        return Ok(());
+    }
     let device = embree_ffi::Device::new("threads=1")?;
     eprintln!(
         "Embree {} ({} tasking), {} triangles",

@@ -15,7 +15,7 @@
 //! pairs in depth-first order so that a subtree is mostly contiguous in memory, each pair
 //! aligned to an even index (see [`FIRST_PAIR`]).
 
-use glam::{Vec3, Vec3A};
+use glam::Vec3A;
 
 use crate::geom::Aabb;
 use crate::mesh::Mesh;
@@ -26,7 +26,9 @@ use super::ordering::{ChildOrdering, ordering_byte};
 
 /// Bins per axis for the SAH sweep.
 pub const BINS: usize = 16;
-/// Subtrees with more triangles than this are built on two rayon tasks.
+/// Subtrees with more triangles than this are built on two rayon tasks; meshes with more
+/// triangles than this gather their triangles' boxes on rayon's pool, and binary trees with
+/// more nodes than this make their wide nodes there.
 pub const PARALLEL_THRESHOLD: usize = 16 * 1024;
 /// Below this depth the builder stops using SAH and splits at the median.
 pub const SAH_DEPTH_LIMIT: usize = 64;
@@ -250,12 +252,21 @@ impl Prim {
 }
 
 /// Every non-degenerate triangle of `mesh`, in id order (degenerate ones are never hit, so no
-/// tree holds them).
-pub(crate) fn prims_of(mesh: &Mesh) -> Vec<Prim> {
-    (0..mesh.triangle_count() as u32)
-        .filter(|&id| !mesh.is_degenerate(id))
-        .map(|id| Prim::of(mesh, id))
-        .collect()
+/// tree holds them); on rayon's pool if `parallel` and the mesh is large.
+pub(crate) fn prims_of(mesh: &Mesh, parallel: bool) -> Vec<Prim> {
+    // A degenerate triangle is marked by an id past the mesh, then dropped in one pass.
+    let end = mesh.triangle_count() as u32;
+    let parallel = parallel && end as usize > PARALLEL_THRESHOLD;
+    let mut prims = parallel::map(parallel, end as usize, |id| {
+        let id = id as u32;
+        let prim = Prim::of(mesh, id);
+        Prim {
+            id: if mesh.is_degenerate(id) { end } else { id },
+            ..prim
+        }
+    });
+    prims.retain(|p| p.id != end);
+    prims
 }
 
 /// A node during the build; children are indices into the same vector.
@@ -271,7 +282,7 @@ struct TempNode {
 /// Builds the tree over the non-degenerate triangles of `mesh`.
 pub fn build(mesh: &Mesh, options: &BuildOptions) -> Result<BuiltTree, BuildError> {
     options.validate()?;
-    let mut prims = prims_of(mesh);
+    let mut prims = prims_of(mesh, options.parallel);
     if prims.is_empty() {
         return Ok(BuiltTree::default());
     }
@@ -280,7 +291,7 @@ pub fn build(mesh: &Mesh, options: &BuildOptions) -> Result<BuiltTree, BuildErro
         parallel: crate::parallel::enabled(options.parallel),
     };
     let extent = Extent::of(&prims);
-    let temp = builder.build_subtree(&mut prims, extent, 0, 0);
+    let temp = builder.build_subtree(&mut prims, extent, 0, 0).flatten();
     let triangle_order: Vec<u32> = prims.iter().map(|p| p.id).collect();
     Ok(layout(&temp, &triangle_order, options.ordering))
 }
@@ -301,21 +312,16 @@ enum Split {
 }
 
 impl Builder {
-    /// Builds the subtree over `prims` (slots `offset..` of the final order); preorder vector,
-    /// root at index 0.
-    fn build_subtree(
-        &self,
-        prims: &mut [Prim],
-        extent: Extent,
-        offset: u32,
-        depth: usize,
-    ) -> Vec<TempNode> {
+    /// Builds the subtree over `prims` (slots `offset..` of the final order).
+    fn build_subtree(&self, prims: &mut [Prim], extent: Extent, offset: u32, depth: usize) -> Part {
         if self.parallel && prims.len() > PARALLEL_THRESHOLD {
             return self.build_parallel(prims, extent, offset, depth);
         }
         let mut out = Vec::with_capacity(2 * prims.len());
         self.build_sequential(prims, extent, offset, depth, &mut out);
-        out
+        // The capacity is the most a subtree can need; the rest waits for the flattening.
+        out.shrink_to_fit();
+        Part::Nodes(out)
     }
 
     fn build_parallel(
@@ -324,11 +330,11 @@ impl Builder {
         extent: Extent,
         offset: u32,
         depth: usize,
-    ) -> Vec<TempNode> {
+    ) -> Part {
         let bounds = extent.bounds.aabb();
         let Some((split_axis, mid, le, re)) = self.choose_and_partition(prims, &extent, depth)
         else {
-            return vec![leaf(bounds, offset, prims.len())];
+            return Part::Nodes(vec![leaf(bounds, offset, prims.len())]);
         };
         let (left, right) = prims.split_at_mut(mid);
         let (l, r) = parallel::join(
@@ -336,18 +342,14 @@ impl Builder {
             || self.build_subtree(left, le, offset, depth + 1),
             || self.build_subtree(right, re, offset + mid as u32, depth + 1),
         );
-        let mut out = Vec::with_capacity(1 + l.len() + r.len());
-        let right_root = 1 + l.len() as u32;
-        out.push(TempNode {
+        let root = TempNode {
             bounds,
-            children: Some((1, right_root)),
+            children: None,
             split_axis,
             first: 0,
             count: 0,
-        });
-        out.extend(l.iter().map(|n| shifted(n, 1)));
-        out.extend(r.iter().map(|n| shifted(n, right_root)));
-        out
+        };
+        Part::Split(root, Box::new((l, r)))
     }
 
     fn build_sequential(
@@ -427,6 +429,52 @@ fn leaf(bounds: Aabb, offset: u32, count: usize) -> TempNode {
     }
 }
 
+/// A subtree built on rayon tasks: its nodes in preorder (children indices relative to the
+/// subtree's root), or a root over two parts built apart. The parts are flattened once, at
+/// the end, so that no node is copied at every parallel level.
+enum Part {
+    Nodes(Vec<TempNode>),
+    Split(TempNode, Box<(Part, Part)>),
+}
+
+impl Part {
+    /// The nodes in preorder, root at index 0.
+    fn flatten(self) -> Vec<TempNode> {
+        match self {
+            Part::Nodes(nodes) => nodes,
+            split => {
+                let mut out = Vec::with_capacity(split.len());
+                split.append_to(&mut out);
+                out
+            }
+        }
+    }
+
+    fn len(&self) -> usize {
+        match self {
+            Part::Nodes(nodes) => nodes.len(),
+            Part::Split(_, parts) => 1 + parts.0.len() + parts.1.len(),
+        }
+    }
+
+    fn append_to(self, out: &mut Vec<TempNode>) {
+        let base = out.len() as u32;
+        match self {
+            Part::Nodes(nodes) => out.extend(nodes.iter().map(|n| shifted(n, base))),
+            Part::Split(root, parts) => {
+                let (left, right) = *parts;
+                let right_root = base + 1 + left.len() as u32;
+                out.push(TempNode {
+                    children: Some((base + 1, right_root)),
+                    ..root
+                });
+                left.append_to(out);
+                right.append_to(out);
+            }
+        }
+    }
+}
+
 fn shifted(node: &TempNode, by: u32) -> TempNode {
     TempNode {
         children: node.children.map(|(l, r)| (l + by, r + by)),
@@ -483,41 +531,71 @@ fn bin_of(center: f32, min: f32, scale: f32) -> usize {
     (((center - min) * scale) as usize).min(BINS - 1)
 }
 
+/// [`bin_of`] on all three axes at once: the same products, truncated in one vector step.
+/// The products are never negative (no centroid lies below the minimum), so clamping them to
+/// the last bin before truncating gives [`bin_of`]'s bins exactly.
+#[inline(always)]
+fn bins_of(center: Vec3A, min: Vec3A, scale: Vec3A) -> [usize; 3] {
+    let bins = ((center - min) * scale).min(Vec3A::splat((BINS - 1) as f32));
+    bins.as_uvec3().to_array().map(|b| b as usize)
+}
+
+impl Box3A {
+    /// Half the surface area, as [`Aabb::half_area`] computes it (0 for an empty box).
+    #[inline(always)]
+    fn half_area(self) -> f32 {
+        if self.min.cmpgt(self.max).any() {
+            return 0.0;
+        }
+        let e = self.max - self.min;
+        e.x * e.y + e.y * e.z + e.z * e.x
+    }
+}
+
 /// The cheapest SAH plane over all axes, with its cost relative to the node's area
 /// (`None` if the centroids coincide on every axis).
 fn best_binned_split(prims: &[Prim], bounds: &Aabb, centers: &Aabb) -> Option<(Split, f32)> {
-    let extent = centers.extent();
-    let scale = Vec3::select(
-        extent.cmpgt(Vec3::ZERO),
-        Vec3::splat(BINS as f32) / extent,
-        Vec3::ZERO,
+    let extent = Vec3A::from(centers.extent());
+    let scale = Vec3A::select(
+        extent.cmpgt(Vec3A::ZERO),
+        Vec3A::splat(BINS as f32) / extent,
+        Vec3A::ZERO,
     );
+    let min = Vec3A::from(centers.min);
     let mut bin_bounds = [[Box3A::EMPTY; BINS]; 3];
     let mut bin_counts = [[0u32; BINS]; 3];
     for p in prims {
-        for axis in 0..3 {
-            let b = bin_of(p.center[axis], centers.min[axis], scale[axis]);
+        for (axis, b) in bins_of(p.center, min, scale).into_iter().enumerate() {
             bin_bounds[axis][b] = bin_bounds[axis][b].union(p.bounds);
             bin_counts[axis][b] += 1;
         }
     }
-    let bin_bounds = bin_bounds.map(|axis| axis.map(Box3A::aabb));
     let mut best: Option<(Split, f32)> = None;
     for axis in (0..3).filter(|&a| extent[a] > 0.0) {
-        // Right-to-left sweep stores the cost of each right part; left-to-right finishes.
+        let (boxes, counts) = (&bin_bounds[axis], &bin_counts[axis]);
+        // Right-to-left sweep stores the cost of each right part; left-to-right finishes. An
+        // empty bin changes neither part, so the plane after it prices as the plane before it
+        // (which wins the tie): both sweeps skip empty bins.
         let mut right_cost = [0.0f32; BINS];
-        let (mut area_box, mut count) = (Aabb::EMPTY, 0u32);
+        let (mut area_box, mut count) = (Box3A::EMPTY, 0u32);
         for b in (1..BINS).rev() {
-            area_box = area_box.union(bin_bounds[axis][b]);
-            count += bin_counts[axis][b];
-            right_cost[b] = area_box.half_area() * count as f32;
+            if counts[b] != 0 {
+                area_box = area_box.union(boxes[b]);
+                count += counts[b];
+                right_cost[b] = area_box.half_area() * count as f32;
+            } else if b + 1 < BINS {
+                right_cost[b] = right_cost[b + 1];
+            }
         }
-        let (mut area_box, mut count) = (Aabb::EMPTY, 0u32);
+        let (mut area_box, mut count) = (Box3A::EMPTY, 0u32);
         for b in 1..BINS {
-            area_box = area_box.union(bin_bounds[axis][b - 1]);
-            count += bin_counts[axis][b - 1];
-            if count == 0 || count as usize == prims.len() {
+            if counts[b - 1] == 0 {
                 continue;
+            }
+            area_box = area_box.union(boxes[b - 1]);
+            count += counts[b - 1];
+            if count as usize == prims.len() {
+                break;
             }
             let cost = area_box.half_area() * count as f32 + right_cost[b];
             if best.is_none_or(|(_, c)| cost < c) {

@@ -25,7 +25,7 @@
 //! [`BuildOptions::wide_leaf_size`]: crate::BuildOptions::wide_leaf_size
 
 use super::NodeKind;
-use crate::bvh::build::BuiltTree;
+use crate::bvh::build::{BuiltTree, PARALLEL_THRESHOLD};
 use crate::bvh::nodes::leaf_word;
 use crate::geom::Aabb;
 
@@ -40,26 +40,45 @@ const MAX_WIDTH: usize = 8;
 
 /// The wide nodes of `built` and the root's child word: a node index, or a leaf word when the
 /// whole tree is one leaf; leaves merged up to `wide_leaf_size` triangles (see the module
-/// docs). `None` for an empty tree.
+/// docs). `None` for an empty tree. The nodes are made on rayon's pool if `parallel`.
 pub(crate) fn collapse<N: NodeKind>(
     built: &BuiltTree,
     wide_leaf_size: u32,
+    parallel: bool,
 ) -> Option<(Vec<N>, u32)> {
     if built.nodes.is_empty() {
         return None;
     }
-    let plan = Plan::new(built, wide_leaf_size, N::WIDTH);
+    let plan = Plan::new(built, wide_leaf_size, N::WIDTH, parallel);
     if plan.as_leaf[0] {
         let (first, count) = plan.ranges[0];
         return Some((Vec::new(), leaf_word::pack(first, count)));
     }
-    let mut nodes = Vec::with_capacity(built.nodes.len() / (N::WIDTH - 1) + 1);
-    let root_word = collapse_node(built, &plan, 0, &mut nodes);
-    Some((nodes, root_word))
+    // First the wide nodes' numbers (preorder, which binary node each is made of), then the
+    // nodes themselves, each from its children's words, independently of the others.
+    let mut binary_of = Vec::with_capacity(built.nodes.len() / (N::WIDTH - 1) + 1);
+    let mut wide_of = vec![0u32; built.nodes.len()];
+    number(built, &plan, 0, &mut binary_of, &mut wide_of);
+    let parallel = parallel && built.nodes.len() > PARALLEL_THRESHOLD;
+    let nodes = crate::parallel::map(parallel, binary_of.len(), |wide| {
+        let children = plan.children(built, binary_of[wide]);
+        let mut slots = [(Aabb::EMPTY, 0u32); MAX_WIDTH];
+        for (slot, &child) in slots.iter_mut().zip(children.as_slice()) {
+            let word = if plan.as_leaf[child] {
+                let (first, count) = plan.ranges[child];
+                leaf_word::pack(first, count)
+            } else {
+                wide_of[child]
+            };
+            *slot = (built.nodes[child].bounds, word);
+        }
+        N::from_children(&slots[..children.len])
+    });
+    Some((nodes, 0))
 }
 
 /// How a binary subtree is covered by at most `i` children of a wide node.
-#[derive(Clone, Copy, Debug, Default)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
 enum Cover {
     /// By one child: the subtree's root itself (a leaf or a wide node, see `Plan::as_leaf`).
     #[default]
@@ -86,8 +105,9 @@ struct Plan {
 }
 
 impl Plan {
-    /// Prices every binary subtree bottom up and keeps the cheapest choices.
-    fn new(built: &BuiltTree, wide_leaf_size: u32, width: usize) -> Self {
+    /// Prices every binary subtree bottom up and keeps the cheapest choices; on rayon's pool
+    /// if `parallel` and the tree is large.
+    fn new(built: &BuiltTree, wide_leaf_size: u32, width: usize, parallel: bool) -> Self {
         assert!((2..=MAX_WIDTH).contains(&width));
         let count = built.nodes.len();
         let mut plan = Plan {
@@ -100,79 +120,40 @@ impl Plan {
         // Per binary node, the cost of its best cover by at most `i` children, at
         // `costs[slot(node, i)]` (f32, as the areas: 4 bytes a node and width).
         let mut costs = vec![0.0f32; count * width];
-        let slot = |node: usize, i: usize| slot(width, node, i);
-        // Children come after their parent (pairs in depth-first order), so a reverse sweep
-        // sees both children of a node before the node.
-        for index in (0..count).rev() {
-            let node = &built.nodes[index];
-            let area = node.bounds.half_area();
-            if node.first_child == 0 {
-                plan.ranges[index] = (node.first, node.count);
-                plan.as_leaf[index] = true;
-                costs[slot(index, 1)..=slot(index, width)].fill(area * node.count as f32);
-                continue;
-            }
-            let (left, right) = (node.first_child as usize, node.first_child as usize + 1);
-            debug_assert!(left > index, "children follow their parent");
-            let ((first, left_count), (right_first, right_count)) =
-                (plan.ranges[left], plan.ranges[right]);
-            debug_assert_eq!(first + left_count, right_first, "slots are contiguous");
-            plan.ranges[index] = (first, left_count + right_count);
-            // Per `i` in 2..=width, the best split of `i` children between the two halves: its
-            // cost and the left half's share.
-            let split = |i: usize| {
-                (1..i)
-                    .map(|k| (costs[slot(left, k)] + costs[slot(right, i - k)], k))
-                    .min_by(|a, b| a.0.total_cmp(&b.0))
-                    .expect("i >= 2")
-            };
-            let splits: [(f32, usize); MAX_WIDTH] = std::array::from_fn(|i| {
-                if i >= 1 && i < width {
-                    split(i + 1)
-                } else {
-                    (0.0, 0)
-                }
-            });
-            let (children_cost, k) = splits[width - 1];
-            plan.node_split[index] = k as u8;
-            let triangles = left_count + right_count;
-            let as_node = area * NODE_COST + children_cost;
-            let as_leaf = area * triangles as f32;
-            plan.as_leaf[index] = triangles <= wide_leaf_size && as_leaf <= as_node;
-            let mut best = if plan.as_leaf[index] {
-                as_leaf
-            } else {
-                as_node
-            };
-            costs[slot(index, 1)] = best;
-            for (i, &(cost, k)) in splits.iter().enumerate().take(width).skip(1) {
-                let i = i + 1;
-                if cost < best {
-                    best = cost;
-                    let (left, right) = (k as u8, (i - k) as u8);
-                    plan.covers[slot(index, i)] = Cover::Split { left, right };
-                } else {
-                    plan.covers[slot(index, i)] = plan.covers[slot(index, i - 1)];
-                }
-                costs[slot(index, i)] = best;
-            }
+        let mut all = Pricing {
+            built,
+            wide_leaf_size,
+            parallel,
+            base: 0,
+            width,
+            ranges: &mut plan.ranges,
+            as_leaf: &mut plan.as_leaf,
+            covers: &mut plan.covers,
+            node_split: &mut plan.node_split,
+            costs: &mut costs,
+        };
+        if count > 1 {
+            // The root, the padding node, then the root's children's pair and all below it.
+            all.split_at(2).1.price_pair_and_below();
+            all.price(1);
         }
+        all.price(0);
         plan
     }
 
     /// The children of the wide node made of binary internal node `index`: the roots of the
     /// cheapest split of its subtree into up to `width` children.
-    fn children(&self, built: &BuiltTree, index: usize) -> Vec<usize> {
+    fn children(&self, built: &BuiltTree, index: usize) -> Children {
         let left = built.nodes[index].first_child as usize;
         let k = usize::from(self.node_split[index]);
-        let mut children = Vec::with_capacity(self.width);
+        let mut children = Children::default();
         self.roots(built, left, k, &mut children);
         self.roots(built, left + 1, self.width - k, &mut children);
         children
     }
 
     /// Appends the roots of the best cover of binary node `index` by at most `i` children.
-    fn roots(&self, built: &BuiltTree, index: usize, i: usize, out: &mut Vec<usize>) {
+    fn roots(&self, built: &BuiltTree, index: usize, i: usize, out: &mut Children) {
         match self.covers[slot(self.width, index, i)] {
             Cover::Whole => out.push(index),
             Cover::Split { left, right } => {
@@ -184,36 +165,178 @@ impl Plan {
     }
 }
 
+/// The plan's entries for binary nodes `base..base + len`, being priced.
+struct Pricing<'a> {
+    built: &'a BuiltTree,
+    wide_leaf_size: u32,
+    parallel: bool,
+    base: usize,
+    width: usize,
+    ranges: &'a mut [(u32, u32)],
+    as_leaf: &'a mut [bool],
+    covers: &'a mut [Cover],
+    node_split: &'a mut [u8],
+    costs: &'a mut [f32],
+}
+
+impl Pricing<'_> {
+    /// The entries of the first `n` nodes and those of the rest.
+    fn split_at(&mut self, n: usize) -> (Pricing<'_>, Pricing<'_>) {
+        let w = self.width;
+        let (ranges, ranges_rest) = self.ranges.split_at_mut(n);
+        let (as_leaf, as_leaf_rest) = self.as_leaf.split_at_mut(n);
+        let (covers, covers_rest) = self.covers.split_at_mut(n * w);
+        let (node_split, node_split_rest) = self.node_split.split_at_mut(n);
+        let (costs, costs_rest) = self.costs.split_at_mut(n * w);
+        let (built, wide_leaf_size, parallel) = (self.built, self.wide_leaf_size, self.parallel);
+        let part = |base, ranges, as_leaf, covers, node_split, costs| Pricing {
+            built,
+            wide_leaf_size,
+            parallel,
+            base,
+            width: w,
+            ranges,
+            as_leaf,
+            covers,
+            node_split,
+            costs,
+        };
+        (
+            part(self.base, ranges, as_leaf, covers, node_split, costs),
+            part(
+                self.base + n,
+                ranges_rest,
+                as_leaf_rest,
+                covers_rest,
+                node_split_rest,
+                costs_rest,
+            ),
+        )
+    }
+
+    /// Prices every node here: a pair of siblings first, then everything below them. Below a
+    /// pair come the left sibling's descendants, then the right's (pairs in depth-first
+    /// order), so the two halves are priced apart, in parallel when large.
+    fn price_pair_and_below(mut self) {
+        let (start, end) = (self.base, self.base + self.ranges.len());
+        if !self.parallel || end - start <= PARALLEL_THRESHOLD {
+            // Children come after their parent, so a reverse sweep sees both children of a
+            // node before the node.
+            (start..end).rev().for_each(|index| self.price(index));
+            return;
+        }
+        let right_first = self.built.nodes[start + 1].first_child as usize;
+        let right_below = if right_first == 0 { end } else { right_first };
+        {
+            let (_, mut below) = self.split_at(2);
+            let (left, right) = below.split_at(right_below - start - 2);
+            crate::parallel::join(true, || price_if_any(left), || price_if_any(right));
+        }
+        self.price(start + 1);
+        self.price(start);
+    }
+
+    /// Prices binary node `index` from its children's entries.
+    fn price(&mut self, index: usize) {
+        let (width, base) = (self.width, self.base);
+        let slot = |node: usize, i: usize| slot(width, node - base, i);
+        let node = &self.built.nodes[index];
+        let area = node.bounds.half_area();
+        if node.first_child == 0 {
+            self.ranges[index - base] = (node.first, node.count);
+            self.as_leaf[index - base] = true;
+            self.costs[slot(index, 1)..=slot(index, width)].fill(area * node.count as f32);
+            return;
+        }
+        let (left, right) = (node.first_child as usize, node.first_child as usize + 1);
+        debug_assert!(left > index, "children follow their parent");
+        let ((first, left_count), (right_first, right_count)) =
+            (self.ranges[left - base], self.ranges[right - base]);
+        debug_assert_eq!(first + left_count, right_first, "slots are contiguous");
+        self.ranges[index - base] = (first, left_count + right_count);
+        let costs = &mut *self.costs;
+        // Per `i` in 2..=width, the best split of `i` children between the two halves: its
+        // cost and the left half's share (the first of equal costs).
+        let mut splits = [(0.0f32, 0usize); MAX_WIDTH];
+        for (i, split) in splits.iter_mut().enumerate().take(width).skip(1) {
+            let i = i + 1;
+            *split = (costs[slot(left, 1)] + costs[slot(right, i - 1)], 1);
+            for k in 2..i {
+                let cost = costs[slot(left, k)] + costs[slot(right, i - k)];
+                if cost.total_cmp(&split.0).is_lt() {
+                    *split = (cost, k);
+                }
+            }
+        }
+        let (children_cost, k) = splits[width - 1];
+        self.node_split[index - base] = k as u8;
+        let triangles = left_count + right_count;
+        let as_node = area * NODE_COST + children_cost;
+        let as_leaf = area * triangles as f32;
+        let leaf = triangles <= self.wide_leaf_size && as_leaf <= as_node;
+        self.as_leaf[index - base] = leaf;
+        let mut best = if leaf { as_leaf } else { as_node };
+        costs[slot(index, 1)] = best;
+        for (i, &(cost, k)) in splits.iter().enumerate().take(width).skip(1) {
+            let i = i + 1;
+            if cost < best {
+                best = cost;
+                let (left, right) = (k as u8, (i - k) as u8);
+                self.covers[slot(index, i)] = Cover::Split { left, right };
+            } else {
+                self.covers[slot(index, i)] = self.covers[slot(index, i - 1)];
+            }
+            costs[slot(index, i)] = best;
+        }
+    }
+}
+
+/// [`Pricing::price_pair_and_below`] unless there is nothing to price.
+fn price_if_any(part: Pricing<'_>) {
+    if !part.ranges.is_empty() {
+        part.price_pair_and_below();
+    }
+}
+
+/// The binary nodes that become a wide node's children (at most [`MAX_WIDTH`]).
+#[derive(Default)]
+struct Children {
+    nodes: [usize; MAX_WIDTH],
+    len: usize,
+}
+
+impl Children {
+    fn push(&mut self, node: usize) {
+        self.nodes[self.len] = node;
+        self.len += 1;
+    }
+
+    fn as_slice(&self) -> &[usize] {
+        &self.nodes[..self.len]
+    }
+}
+
 /// Where a plan of `width` keeps binary node `node`'s entry for covers by at most `i` children.
 fn slot(width: usize, node: usize, i: usize) -> usize {
     node * width + i - 1
 }
 
-/// Appends the wide node for binary internal node `index` (and its subtree); returns its index.
-fn collapse_node<N: NodeKind>(
+/// Numbers the wide node made of binary internal node `index` and those below it in preorder:
+/// appends each one's binary node to `binary_of` and records its number in `wide_of`.
+fn number(
     built: &BuiltTree,
     plan: &Plan,
     index: usize,
-    nodes: &mut Vec<N>,
-) -> u32 {
-    let wide = nodes.len();
-    // A placeholder, so that the node keeps its preorder place before its subtrees.
-    nodes.push(N::from_children(&[]));
-    let slots: Vec<(Aabb, u32)> = plan
-        .children(built, index)
-        .into_iter()
-        .map(|child| {
-            let word = if plan.as_leaf[child] {
-                let (first, count) = plan.ranges[child];
-                leaf_word::pack(first, count)
-            } else {
-                collapse_node(built, plan, child, nodes)
-            };
-            (built.nodes[child].bounds, word)
-        })
-        .collect();
-    nodes[wide] = N::from_children(&slots);
-    wide as u32
+    binary_of: &mut Vec<usize>,
+    wide_of: &mut [u32],
+) {
+    wide_of[index] = binary_of.len() as u32;
+    binary_of.push(index);
+    for &child in plan.children(built, index).as_slice() {
+        if !plan.as_leaf[child] {
+            number(built, plan, child, binary_of, wide_of);
+        }
+    }
 }
 
 #[cfg(test)]
@@ -236,8 +359,9 @@ mod tests {
         }
         assert_ne!(node.first_child, 0, "a binary leaf is always a leaf");
         let children = plan.children(built, index);
-        assert!((2..=plan.width).contains(&children.len()));
+        assert!((2..=plan.width).contains(&children.len));
         let below: f64 = children
+            .as_slice()
             .iter()
             .map(|&c| walk(built, plan, c, covered))
             .sum();
@@ -333,7 +457,7 @@ mod tests {
             let built = build(&mesh, &options).unwrap();
             for width in [2, 4, 8] {
                 for leaf_size in [1, 3, 16] {
-                    let plan = Plan::new(&built, leaf_size, width);
+                    let plan = Plan::new(&built, leaf_size, width, false);
                     let mut covered = vec![0; built.triangle_order.len()];
                     let cost = walk(&built, &plan, 0, &mut covered);
                     assert!(covered.iter().all(|&c| c == 1));
@@ -349,13 +473,29 @@ mod tests {
         }
     }
 
+    /// Priced on rayon's pool (the halves below each large pair apart), the plan is the one
+    /// priced in one sweep, entry for entry.
+    #[test]
+    fn the_parallel_plan_is_the_sequential_plan() {
+        let built = build(&soup(40_000, 7), &BuildOptions::default()).unwrap();
+        assert!(built.nodes.len() > 2 * PARALLEL_THRESHOLD);
+        for width in [4, 8] {
+            let one = Plan::new(&built, 16, width, false);
+            let many = Plan::new(&built, 16, width, true);
+            assert_eq!(one.ranges, many.ranges);
+            assert_eq!(one.as_leaf, many.as_leaf);
+            assert_eq!(one.covers, many.covers);
+            assert_eq!(one.node_split, many.node_split);
+        }
+    }
+
     /// On the bunny, 4 and 8 wide: every slot covered once, merged leaves no larger than
     /// `wide_leaf_size` (none with size 1: the leaves are then the binary ones).
     #[test]
     fn the_plan_covers_the_bunny() {
         let built = build(&bunny(), &BuildOptions::default()).unwrap();
         for (leaf_size, width) in [1, 4, 16].into_iter().flat_map(|l| [(l, 4), (l, 8)]) {
-            let plan = Plan::new(&built, leaf_size, width);
+            let plan = Plan::new(&built, leaf_size, width, false);
             let mut covered = vec![0; built.triangle_order.len()];
             walk(&built, &plan, 0, &mut covered);
             assert!(covered.iter().all(|&c| c == 1), "size {leaf_size}");

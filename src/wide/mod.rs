@@ -132,7 +132,8 @@ impl<N: NodeKind> WideBvh<N> {
         check_size(built.triangle_order.len(), built.nodes.len(), N::FORMAT)?;
         let root_bounds = built.nodes.first().map_or(Aabb::EMPTY, |n| n.bounds);
         let (mut nodes, mut root) =
-            collapse::collapse(&built, options.wide_leaf_size).unwrap_or((Vec::new(), 0));
+            collapse::collapse(&built, options.wide_leaf_size, options.parallel)
+                .unwrap_or((Vec::new(), 0));
         let triangles = leaves(
             (&mut nodes, &mut root),
             mesh,

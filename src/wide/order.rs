@@ -42,15 +42,25 @@ pub(crate) const fn slot_order(width: usize) -> u32 {
 /// `k * b..(k + 1) * b` for `b = log2(width)` (read back by [`order_slots`]). A walk pushes the
 /// slots in this order (precomputed node sorting), so every position names each slot once.
 pub(crate) fn octant_orders(children: &[(Aabb, u32)], width: usize) -> [u32; 8] {
-    debug_assert!(width.is_power_of_two() && children.len() <= width);
-    let centres: Vec<Vec3> = children.iter().map(|(bounds, _)| bounds.center()).collect();
+    debug_assert!(width.is_power_of_two() && children.len() <= width && width <= 8);
+    let mut centres = [Vec3::ZERO; 8];
+    for (centre, (bounds, _)) in centres.iter_mut().zip(children) {
+        *centre = bounds.center();
+    }
+    let used = children.len();
     std::array::from_fn(|octant| {
         let diagonal = octant_diagonal(octant as u32);
-        let along = |slot: usize| centres[slot].dot(diagonal);
-        let mut slots: Vec<usize> = (0..centres.len()).collect();
-        slots.sort_by(|&a, &b| along(a).total_cmp(&along(b)).then(a.cmp(&b)));
-        slots.extend(centres.len()..width);
-        slots
+        let along = centres.map(|centre| centre.dot(diagonal));
+        // Insertion sort: stable, so equal projections keep slot order; at most 8 slots.
+        let mut slots: [usize; 8] = std::array::from_fn(|slot| slot);
+        for i in 1..used {
+            let mut j = i;
+            while j > 0 && along[slots[j - 1]].total_cmp(&along[slots[j]]).is_gt() {
+                slots.swap(j - 1, j);
+                j -= 1;
+            }
+        }
+        slots[..width]
             .iter()
             .rev()
             .fold(0, |word, &slot| (word << slot_bits(width)) | slot as u32)

@@ -70,7 +70,7 @@ mod tests {
     #[test]
     fn covers_reach_the_asked_faces() {
         let mesh = bunny();
-        let all = prims_of(&mesh);
+        let all = prims_of(&mesh, false);
         for (start, len) in [(0, 2), (10, 3), (100, 9), (0, 1000), (5, all.len() - 5)] {
             for needed in [0b11_1111, 0b00_0001, 0b10_0100, 0] {
                 let mut set = all[start..start + len].to_vec();

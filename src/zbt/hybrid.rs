@@ -122,7 +122,7 @@ impl<const TOP_LEVEL: bool> PackedTree<TOP_LEVEL> {
         zbt: &ZbtOptions,
         chunk_size: usize,
     ) -> (Self, Vec<u32>) {
-        let mut prims = prims_of(&mesh);
+        let mut prims = prims_of(&mesh, false);
         let mut high = vec![0u32; prims.len()];
         let mut top = Vec::new();
         let root_box = Extent::of(&prims).bounds.aabb();
