@@ -9,6 +9,11 @@
 //! dependent load of up to four cache lines, a box test of every child, a push). Nodes are
 //! numbered in depth-first preorder, so a subtree is contiguous.
 //!
+//! On large trees both passes run on rayon's pool: the pricing splits by subtree (a binary
+//! subtree's nodes are contiguous below its root's pair, see [`Pricing`]), and once the wide
+//! nodes are numbered each is made from its children alone. The plan and the nodes are those
+//! of one thread.
+//!
 //! Leaves: a binary leaf is always a leaf; a larger subtree of at most
 //! [`BuildOptions::wide_leaf_size`] triangles may become one (the binary build prices a step
 //! like one triangle test, which suits a binary walk, not a wide one). A subtree's triangles
