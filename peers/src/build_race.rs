@@ -82,15 +82,7 @@ pub fn build_race(mesh: &Arc<Mesh>, rounds: usize) -> Result<String, String> {
             rows.push(Builder::Raybatch(kind));
         }
     }
-    let mut best = vec![Duration::MAX; rows.len()];
-    for round in 0..rounds {
-        eprintln!("build race: round {} of {rounds}", round + 1);
-        // Each round starts one row later, so that no row always runs first.
-        for k in 0..rows.len() {
-            let row = (round + k) % rows.len();
-            best[row] = best[row].min(rows[row].time(&device, mesh)?);
-        }
-    }
+    let best = crate::race::best_in_turns(rows.len(), rounds, |k| rows[k].time(&device, mesh))?;
     let ms = |d: Duration| d.as_secs_f64() * 1e3;
     let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
     let mut table = format!(

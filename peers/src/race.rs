@@ -124,20 +124,34 @@ pub fn race(
     Ok(out)
 }
 
-/// `rounds` rounds of one pass per contender over `rays` rays, round `r` starting with
-/// contender `r`.
-fn run(mut contenders: Vec<Contender<'_>>, rays: usize, rounds: usize) -> Vec<Placing> {
-    let n = contenders.len();
-    let mut best = vec![Duration::MAX; n];
-    let mut answers = vec![vec![false; rays]; n];
+/// The best of `rounds` timings of each of `count` contenders (`time(k)` times contender
+/// `k` once), taken in turns: round `r` starts with contender `r`, so that no contender always
+/// goes first. The first error stops the race.
+pub fn best_in_turns<E>(
+    count: usize,
+    rounds: usize,
+    mut time: impl FnMut(usize) -> Result<Duration, E>,
+) -> Result<Vec<Duration>, E> {
+    let mut best = vec![Duration::MAX; count];
     for round in 0..rounds {
-        for k in (0..n).map(|k| (k + round) % n) {
-            let start = Instant::now();
-            (contenders[k].pass)(black_box(&mut answers[k]));
-            best[k] = best[k].min(start.elapsed());
+        for k in (0..count).map(|k| (k + round) % count) {
+            best[k] = best[k].min(time(k)?);
         }
         eprintln!("  round {} of {rounds}", round + 1);
     }
+    Ok(best)
+}
+
+/// `rounds` rounds of one pass per contender over `rays` rays, taken in turns.
+fn run(mut contenders: Vec<Contender<'_>>, rays: usize, rounds: usize) -> Vec<Placing> {
+    let n = contenders.len();
+    let mut answers = vec![vec![false; rays]; n];
+    let timed = best_in_turns(n, rounds, |k| {
+        let start = Instant::now();
+        (contenders[k].pass)(black_box(&mut answers[k]));
+        Ok::<_, std::convert::Infallible>(start.elapsed())
+    });
+    let Ok(best) = timed;
     contenders
         .iter()
         .zip(best)

@@ -540,18 +540,6 @@ fn bins_of(center: Vec3A, min: Vec3A, scale: Vec3A) -> [usize; 3] {
     bins.as_uvec3().to_array().map(|b| b as usize)
 }
 
-impl Box3A {
-    /// Half the surface area, as [`Aabb::half_area`] computes it (0 for an empty box).
-    #[inline(always)]
-    fn half_area(self) -> f32 {
-        if self.min.cmpgt(self.max).any() {
-            return 0.0;
-        }
-        let e = self.max - self.min;
-        e.x * e.y + e.y * e.z + e.z * e.x
-    }
-}
-
 /// The cheapest SAH plane over all axes, with its cost relative to the node's area
 /// (`None` if the centroids coincide on every axis).
 fn best_binned_split(prims: &[Prim], bounds: &Aabb, centers: &Aabb) -> Option<(Split, f32)> {
@@ -582,7 +570,7 @@ fn best_binned_split(prims: &[Prim], bounds: &Aabb, centers: &Aabb) -> Option<(S
             if counts[b] != 0 {
                 area_box = area_box.union(boxes[b]);
                 count += counts[b];
-                right_cost[b] = area_box.half_area() * count as f32;
+                right_cost[b] = area_box.aabb().half_area() * count as f32;
             } else if b + 1 < BINS {
                 right_cost[b] = right_cost[b + 1];
             }
@@ -597,7 +585,7 @@ fn best_binned_split(prims: &[Prim], bounds: &Aabb, centers: &Aabb) -> Option<(S
             if count as usize == prims.len() {
                 break;
             }
-            let cost = area_box.half_area() * count as f32 + right_cost[b];
+            let cost = area_box.aabb().half_area() * count as f32 + right_cost[b];
             if best.is_none_or(|(_, c)| cost < c) {
                 best = Some((Split::Binned { axis, bin: b }, cost));
             }

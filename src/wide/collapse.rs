@@ -219,7 +219,7 @@ impl Pricing<'_> {
         )
     }
 
-    /// Prices every node here: a pair of siblings first, then everything below them. Below a
+    /// Prices every node here (none, or a pair of siblings and everything below them). Below a
     /// pair come the left sibling's descendants, then the right's (pairs in depth-first
     /// order), so the two halves are priced apart, in parallel when large.
     fn price_pair_and_below(mut self) {
@@ -235,7 +235,11 @@ impl Pricing<'_> {
         {
             let (_, mut below) = self.split_at(2);
             let (left, right) = below.split_at(right_below - start - 2);
-            crate::parallel::join(true, || price_if_any(left), || price_if_any(right));
+            crate::parallel::join(
+                true,
+                || left.price_pair_and_below(),
+                || right.price_pair_and_below(),
+            );
         }
         self.price(start + 1);
         self.price(start);
@@ -293,13 +297,6 @@ impl Pricing<'_> {
             }
             costs[slot(index, i)] = best;
         }
-    }
-}
-
-/// [`Pricing::price_pair_and_below`] unless there is nothing to price.
-fn price_if_any(part: Pricing<'_>) {
-    if !part.ranges.is_empty() {
-        part.price_pair_and_below();
     }
 }
 

@@ -51,15 +51,9 @@ pub(crate) fn octant_orders(children: &[(Aabb, u32)], width: usize) -> [u32; 8] 
     std::array::from_fn(|octant| {
         let diagonal = octant_diagonal(octant as u32);
         let along = centres.map(|centre| centre.dot(diagonal));
-        // Insertion sort: stable, so equal projections keep slot order; at most 8 slots.
+        // A stable sort (no allocation at this size): equal projections keep slot order.
         let mut slots: [usize; 8] = std::array::from_fn(|slot| slot);
-        for i in 1..used {
-            let mut j = i;
-            while j > 0 && along[slots[j - 1]].total_cmp(&along[slots[j]]).is_gt() {
-                slots.swap(j - 1, j);
-                j -= 1;
-            }
-        }
+        slots[..used].sort_by(|&a, &b| along[a].total_cmp(&along[b]));
         slots[..width]
             .iter()
             .rev()
