@@ -90,7 +90,7 @@ fn closest(c: &mut Criterion) {
                 })
             });
             group.bench_function(id("batched"), |b| {
-                b.iter(|| tree.cast_rays_with(rays, &mut hits, &options).unwrap())
+                b.iter(|| tree.cast_ray_batch_with(rays, &mut hits, &options).unwrap())
             });
         }
     }

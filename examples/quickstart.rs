@@ -19,7 +19,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     // A whole batch: one pass down the tree, split over rayon's threads; the same answers.
     let rays = vec![ray; 100_000];
     let mut hits = vec![None; rays.len()];
-    tree.cast_rays(&rays, &mut hits)?;
+    tree.cast_ray_batch(&rays, &mut hits)?;
     let mut occluded = vec![false; rays.len()];
     tree.occluded_batch(&rays, &mut occluded)?;
     tree.for_each_hit_batch(&rays, |_ray, _hit| { /* e.g. sum losses per ray */ });

@@ -138,7 +138,9 @@ fn query_time(scene: &Scene, rays: &[Ray]) -> f64 {
     (0..3)
         .map(|_| {
             let t = Instant::now();
-            scene.cast_rays(rays, &mut hits).expect("lengths match");
+            scene
+                .cast_ray_batch(rays, &mut hits)
+                .expect("lengths match");
             t.elapsed().as_secs_f64() * 1e3
         })
         .fold(f64::INFINITY, f64::min)

@@ -342,13 +342,13 @@ impl RayQueries for AnyAccel {
 
 impl BatchQueries for AnyAccel {
     #[cfg_attr(test, inline)]
-    fn cast_rays_with(
+    fn cast_ray_batch_with(
         &self,
         rays: &[Ray],
         hits: &mut [Option<Hit>],
         options: &BatchOptions,
     ) -> Result<(), BatchError> {
-        each_tree!(&self.tree, (_kind, tree) => tree.cast_rays_with(rays, hits, options))
+        each_tree!(&self.tree, (_kind, tree) => tree.cast_ray_batch_with(rays, hits, options))
     }
     #[cfg_attr(test, inline)]
     fn occluded_batch_with(

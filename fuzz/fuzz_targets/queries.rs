@@ -88,7 +88,7 @@ fuzz_target!(|data: &[u8]| {
             let batch = raybatch::BatchOptions::default()
                 .with_kernel(kernel)
                 .with_parallel(false);
-            tree.cast_rays_with(&rays, &mut batched, &batch)
+            tree.cast_ray_batch_with(&rays, &mut batched, &batch)
                 .expect("one slot per ray");
             let mut occluded = vec![false; rays.len()];
             tree.occluded_batch_with(&rays, &mut occluded, &batch)

@@ -189,7 +189,7 @@ pub fn raybatch(
     })
 }
 
-/// The batched engine on the same tree: the whole ray array in one `cast_rays_with` call on one
+/// The batched engine on the same tree: the whole ray array in one `cast_ray_batch_with` call on one
 /// thread (`parallel = false`, other options default), or in calls of `calls_of` rays (a game
 /// frame's worth of queries, for instance). With `any_hit`, also `occluded_batch_with`.
 pub fn raybatch_batched(
@@ -207,7 +207,7 @@ pub fn raybatch_batched(
     let mut out: Vec<Option<Hit>> = vec![None; rays.len()];
     let (query, ()) = best_of(runs, || {
         for (rays, out) in rays.chunks(size).zip(out.chunks_mut(size)) {
-            tree.cast_rays_with(rays, out, &batch)
+            tree.cast_ray_batch_with(rays, out, &batch)
                 .expect("output sized to the rays");
         }
     });

@@ -180,7 +180,7 @@ fn per_ray<'a>(
     }
 }
 
-/// `cast_rays_with` on one thread, all rays in one call or in calls of `calls_of`.
+/// `cast_ray_batch_with` on one thread, all rays in one call or in calls of `calls_of`.
 fn batched_closest<'a>(
     tree: &'a (AccelKind, AnyAccel),
     rays: &'a [Ray],
@@ -191,7 +191,7 @@ fn batched_closest<'a>(
     let calls = (calls_of, ordering);
     batched(tree, rays, calls, move |tree, rays, hit, batch| {
         let hits = &mut hits[..rays.len()];
-        tree.cast_rays_with(rays, hits, batch)
+        tree.cast_ray_batch_with(rays, hits, batch)
             .expect("output sized to the rays");
         // Read back as the one-ray rows write theirs: one answer per ray.
         for (hit, h) in hit.iter_mut().zip(hits) {

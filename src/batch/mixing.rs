@@ -280,7 +280,7 @@ mod tests {
         use crate::{BatchQueries, RayQueries};
         let options = crate::BatchOptions::default().with_parallel(false);
         let mut hits = vec![None; rays.len()];
-        tree.cast_rays_with(rays, &mut hits, &options)
+        tree.cast_ray_batch_with(rays, &mut hits, &options)
             .expect("sized");
         for (ray, hit) in rays.iter().zip(&hits) {
             assert_eq!(*hit, tree.cast_ray(ray), "{ray:?}");

@@ -30,7 +30,8 @@ const _: () = {
     assert!(offset_of!(Ray, tmin) == 24 && offset_of!(Ray, tmax) == 28 && size_of::<Ray>() == 32);
 };
 
-/// Why a ray can never hit anything. Queries treat such rays as misses; this says why.
+/// Why a ray can never hit anything. Queries treat such rays as misses that are occluded
+/// (no hit, no hits, and `occluded` true: line of sight fails closed); this says why.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum RayError {
     /// A component of the origin is NaN or infinite.
@@ -86,7 +87,8 @@ impl Ray {
         self.origin + self.dir * t
     }
 
-    /// Checks that the ray can hit something; queries treat an invalid ray as a miss.
+    /// Checks that the ray can hit something; queries treat an invalid ray as a miss that is
+    /// occluded (see [`RayError`]).
     ///
     /// Direction components smaller in magnitude than `f32::MIN_POSITIVE` (subnormals) are
     /// treated as zero by every query (their reciprocal would overflow); a direction made only of

@@ -220,12 +220,12 @@ fn write_closest(hits: &mut [Option<Hit>], slots: &Slots, best: &[Hit]) -> u64 {
 pub trait BatchQueries {
     /// Closest hit of every ray (`hits[i]` for `rays[i]`), identical to
     /// [`RayQueries::cast_ray`] on each ray.
-    fn cast_rays(&self, rays: &[Ray], hits: &mut [Option<Hit>]) -> Result<(), BatchError> {
-        self.cast_rays_with(rays, hits, &BatchOptions::default())
+    fn cast_ray_batch(&self, rays: &[Ray], hits: &mut [Option<Hit>]) -> Result<(), BatchError> {
+        self.cast_ray_batch_with(rays, hits, &BatchOptions::default())
     }
 
-    /// [`BatchQueries::cast_rays`] with options.
-    fn cast_rays_with(
+    /// [`BatchQueries::cast_ray_batch`] with options.
+    fn cast_ray_batch_with(
         &self,
         rays: &[Ray],
         hits: &mut [Option<Hit>],
@@ -265,8 +265,8 @@ pub trait BatchQueries {
     );
 }
 
-/// [`BatchQueries::cast_rays_with`] on `accel`.
-pub(crate) fn cast_rays_with<A: Accel>(
+/// [`BatchQueries::cast_ray_batch_with`] on `accel`.
+pub(crate) fn cast_ray_batch_with<A: Accel>(
     accel: &A,
     rays: &[Ray],
     hits: &mut [Option<Hit>],
@@ -336,7 +336,8 @@ pub(crate) fn occluded_batch_with<A: Accel>(
             occluded.resize(slots.dead() + 1, false);
             chunk.trace(accel, &mut Sink::any(occluded));
             for (out, &slot) in out.iter_mut().zip(&slots.of_position) {
-                *out = occluded.get(slot as usize).copied().unwrap_or(false);
+                // An invalid ray has no slot and is blocked, as one at a time.
+                *out = slot == Slots::NONE || occluded[slot as usize];
             }
         },
     );

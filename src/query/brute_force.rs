@@ -19,8 +19,12 @@ pub fn cast_ray(mesh: &Mesh, ray: &Ray, kernel: Kernel) -> Option<Hit> {
     best
 }
 
-/// True if any triangle is hit within the ray's range.
+/// True if any triangle is hit within the ray's range, or if the ray is invalid (line of
+/// sight fails closed, as in [`crate::RayQueries::occluded`]).
 pub fn occluded(mesh: &Mesh, ray: &Ray, kernel: Kernel) -> bool {
+    if !ray.is_valid() {
+        return true;
+    }
     let mut any = false;
     for_each_hit(mesh, ray, kernel, |_| any = true);
     any

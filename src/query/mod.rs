@@ -9,7 +9,8 @@
 //! - **batched equals per ray** bit for bit (triangle, `t`, `u`, `v`, occlusion, the set of all
 //!   hits), for any batch size, ray order, options or thread count;
 //! - **no panic on bad input**: an invalid ray (NaN, infinite, zero direction, empty range)
-//!   misses ([`crate::geom::Ray::validate`] says why); mismatched slices are a [`BatchError`].
+//!   misses and is occluded, so line of sight fails closed ([`crate::geom::Ray::validate`] says
+//!   why); mismatched slices are a [`BatchError`].
 
 pub mod batched;
 pub mod brute_force;
@@ -69,13 +70,13 @@ macro_rules! compiled_queries {
 
         impl $crate::query::BatchQueries for $structure {
             #[cfg_attr(test, inline)]
-            fn cast_rays_with(
+            fn cast_ray_batch_with(
                 &self,
                 rays: &[$crate::geom::Ray],
                 hits: &mut [Option<$crate::hit::Hit>],
                 options: &$crate::batch::BatchOptions,
             ) -> Result<(), $crate::query::BatchError> {
-                $crate::query::batched::cast_rays_with(self, rays, hits, options)
+                $crate::query::batched::cast_ray_batch_with(self, rays, hits, options)
             }
             #[cfg_attr(test, inline)]
             fn occluded_batch_with(

@@ -10,7 +10,7 @@ use crate::geom::{Kernel, KernelTask, PreparedRay, Ray, TriangleTest};
 use crate::hit::{Any, Closest, CountingClosest, EachHit, Hit, Visitor};
 
 /// The single-ray queries. Every structure of the crate implements them (each compiled once,
-/// in this crate); invalid rays miss (see [`Ray::validate`]), and on equal `t` the lowest
+/// in this crate); invalid rays miss and are occluded (see [`Ray::validate`]), and on equal `t` the lowest
 /// triangle id wins. Usable as a trait object (`&dyn RayQueries`) but for its generic methods.
 pub trait RayQueries {
     /// The closest hit (watertight kernel), or `None`.
@@ -27,7 +27,9 @@ pub trait RayQueries {
     fn cast_ray_visits(&self, ray: &Ray, kernel: Kernel) -> (Option<Hit>, u32);
 
     /// True if the ray hits anything in `[tmin, tmax]` (line of sight is `!occluded` of a
-    /// [`Ray::segment`]). Stops at the first hit found.
+    /// [`Ray::segment`]). Stops at the first hit found. An invalid ray (see [`Ray::validate`]:
+    /// a NaN or infinite point, a segment of length zero) is occluded: a sightline built from
+    /// a bad position fails closed, never reads as clear.
     fn occluded(&self, ray: &Ray) -> bool {
         self.occluded_with(ray, Kernel::Watertight)
     }
@@ -139,7 +141,7 @@ pub(crate) fn cast_ray_visits<A: Accel>(
 /// [`RayQueries::occluded_with`] on `accel`.
 pub(crate) fn occluded_with<A: Accel>(accel: &A, ray: &Ray, kernel: Kernel) -> bool {
     let Some(prepared) = PreparedRay::new(ray) else {
-        return false;
+        return true; // An invalid ray is blocked: line of sight fails closed.
     };
     let mut occluded = [false];
     let mut any = Any {

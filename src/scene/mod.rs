@@ -52,7 +52,7 @@
 //! // Batched: the same answers as one ray at a time.
 //! let rays = vec![ray; 3];
 //! let mut hits = vec![None; 3];
-//! scene.cast_rays(&rays, &mut hits)?;
+//! scene.cast_ray_batch(&rays, &mut hits)?;
 //! assert!(hits.iter().all(|h| *h == scene.cast_ray(&ray)));
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```

@@ -343,14 +343,14 @@ impl RayQueries for Scene {
 
 impl BatchQueries for Scene {
     #[cfg_attr(test, inline)]
-    fn cast_rays_with(
+    fn cast_ray_batch_with(
         &self,
         rays: &[Ray],
         hits: &mut [Option<Hit>],
         options: &BatchOptions,
     ) -> Result<(), BatchError> {
         self.filtered(ALL_LAYERS)
-            .cast_rays_with(rays, hits, options)
+            .cast_ray_batch_with(rays, hits, options)
     }
     #[cfg_attr(test, inline)]
     fn occluded_batch_with(

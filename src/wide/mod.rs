@@ -640,7 +640,7 @@ mod tests {
             let answers: Vec<Option<Hit>> = rays.iter().map(|r| tree.cast_ray(r)).collect();
             assert!(answers == per_ray);
             let mut batched = vec![None; rays.len()];
-            tree.cast_rays(&rays, &mut batched).unwrap();
+            tree.cast_ray_batch(&rays, &mut batched).unwrap();
             assert!(batched == per_ray);
         }
     }
@@ -703,7 +703,7 @@ mod tests {
                 })
                 .collect();
             let mut batched = vec![None; rays.len()];
-            tree.cast_rays(&rays, &mut batched).unwrap();
+            tree.cast_ray_batch(&rays, &mut batched).unwrap();
             let hits = batched.iter().filter(|hit| hit.is_some()).count();
             assert_eq!(hits > 0, !mesh.is_empty());
             for (ray, batched) in rays.iter().zip(&batched) {
@@ -810,7 +810,7 @@ mod tests {
             let mut occluded = vec![false; rays.len()];
             for (i, chunk) in rays.chunks(calls_of).enumerate() {
                 let at = i * calls_of..i * calls_of + chunk.len();
-                tree.cast_rays_with(chunk, &mut closest[at.clone()], &batch)
+                tree.cast_ray_batch_with(chunk, &mut closest[at.clone()], &batch)
                     .unwrap();
                 tree.occluded_batch_with(chunk, &mut occluded[at], &batch)
                     .unwrap();
@@ -931,7 +931,8 @@ mod tests {
                 let batch = BatchOptions::default()
                     .with_parallel(false)
                     .with_interleave(interleave);
-                wide.cast_rays_with(&rays, &mut batched, &batch).unwrap();
+                wide.cast_ray_batch_with(&rays, &mut batched, &batch)
+                    .unwrap();
                 let mut occluded = vec![false; rays.len()];
                 wide.occluded_batch_with(&rays, &mut occluded, &batch)
                     .unwrap();

@@ -90,7 +90,7 @@ fn bunny_closest(count: usize) {
         .map(|r| opt_bits(RayQueries::cast_ray(&tree, r)))
         .collect();
     let mut hits = vec![Some(GARBAGE); count];
-    BatchQueries::cast_rays(&tree, &rays, &mut hits).unwrap();
+    BatchQueries::cast_ray_batch(&tree, &rays, &mut hits).unwrap();
     ok(compare_closest(
         &format!("bunny, {count} incoherent rays, default options"),
         &rays,

@@ -1,7 +1,7 @@
 //! The batched queries against the single-ray reference, bit for bit, across the option space.
 //!
 //! The contract of the batched queries: for every structure of the zoo, kernel, batch ordering,
-//! partition kernel, `single_ray_below`, chunking and thread count, `cast_rays_with` returns
+//! partition kernel, `single_ray_below`, chunking and thread count, `cast_ray_batch_with` returns
 //! exactly `cast_ray_with` for every ray (triangle, `t`, `u`, `v` bits), `occluded_batch_with`
 //! exactly `occluded_with`, and `for_each_hit_batch_with` the same multiset of
 //! `(ray index, hit)` as `for_each_hit_with` on every ray, whatever the batch size; output
@@ -85,7 +85,7 @@ fn hard_rays_on_icospheres_full() {
     hard_rays_on_icospheres(Tier::Full);
 }
 
-/// The default-option entry points (`cast_rays`, `occluded_batch`, `for_each_hit_batch`) in the
+/// The default-option entry points (`cast_ray_batch`, `occluded_batch`, `for_each_hit_batch`) in the
 /// global pool and inside pools of 1, 2 and 3 threads.
 #[test]
 fn default_entry_points_match_single_ray() {
@@ -97,7 +97,7 @@ fn default_entry_points_match_single_ray() {
             let what = format!("{} default options, pool {threads:?}", tree.name);
             let run = || {
                 let mut hits = vec![Some(GARBAGE); rays.len()];
-                tree.accel.cast_rays(&rays, &mut hits).unwrap();
+                tree.accel.cast_ray_batch(&rays, &mut hits).unwrap();
                 let mut occ: Vec<bool> = (0..rays.len()).map(|i| i % 3 == 0).collect();
                 tree.accel.occluded_batch(&rays, &mut occ).unwrap();
                 let sink = Mutex::new(Vec::new());
@@ -183,16 +183,17 @@ fn length_mismatch_is_an_error() {
                     let options = combo.options();
                     let what = format!("{} {combo:?}: {n} rays, {outputs} outputs", tree.name);
                     let mut hits = vec![None; outputs];
-                    let got = combo.run(|| tree.accel.cast_rays_with(rays, &mut hits, &options));
-                    assert_eq!(got, expected, "cast_rays_with {what}");
+                    let got =
+                        combo.run(|| tree.accel.cast_ray_batch_with(rays, &mut hits, &options));
+                    assert_eq!(got, expected, "cast_ray_batch_with {what}");
                     let mut occ = vec![false; outputs];
                     let got =
                         combo.run(|| tree.accel.occluded_batch_with(rays, &mut occ, &options));
                     assert_eq!(got, expected, "occluded_batch_with {what}");
                 }
                 let mut hits = vec![None; outputs];
-                let got = tree.accel.cast_rays(rays, &mut hits);
-                assert_eq!(got, expected, "cast_rays {}", tree.name);
+                let got = tree.accel.cast_ray_batch(rays, &mut hits);
+                assert_eq!(got, expected, "cast_ray_batch {}", tree.name);
                 let mut occ = vec![false; outputs];
                 let got = tree.accel.occluded_batch(rays, &mut occ);
                 assert_eq!(got, expected, "occluded_batch {}", tree.name);

@@ -50,7 +50,7 @@ fn exact<A: RayQueries + BatchQueries>(
     batch: &BatchOptions,
 ) -> Result<(), TestCaseError> {
     let mut batched = vec![None; rays.len()];
-    tree.cast_rays_with(rays, &mut batched, batch)
+    tree.cast_ray_batch_with(rays, &mut batched, batch)
         .map_err(|e| TestCaseError::fail(e.to_string()))?;
     for (ray, b) in rays.iter().zip(&batched) {
         let expected = opt_bits(brute_force::cast_ray(mesh, ray, Kernel::Watertight));

@@ -57,7 +57,8 @@ proptest! {
             for kernel in Kernel::ALL {
                 let all = brute_force::all_hits(&mesh, &ray, kernel);
                 let closest = brute_force::cast_ray(&mesh, &ray, kernel);
-                prop_assert_eq!(brute_force::occluded(&mesh, &ray, kernel), !all.is_empty());
+                let occluded = !all.is_empty() || !ray.is_valid();
+                prop_assert_eq!(brute_force::occluded(&mesh, &ray, kernel), occluded);
                 prop_assert_eq!(closest.is_some(), !all.is_empty());
                 if let Some(c) = closest {
                     let min_t = all.iter().map(|h| h.t).fold(f32::INFINITY, f32::min);

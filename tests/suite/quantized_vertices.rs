@@ -47,7 +47,7 @@ fn check(mesh: &Mesh, bits: u32, specs: &[RaySpec]) -> Result<(), TestCaseError>
     }
     for t in &zoo {
         let mut batched = vec![None; rays.len()];
-        t.accel.cast_rays(&rays, &mut batched).unwrap();
+        t.accel.cast_ray_batch(&rays, &mut batched).unwrap();
         for (ray, b) in rays.iter().zip(batched) {
             prop_assert_eq!(opt_bits(b), opt_bits(t.accel.cast_ray(ray)), "{}", t.name);
         }

@@ -20,7 +20,9 @@ use raybatch::{
 fn assert_matches(scene: &Scene, meshes: &[Mesh], descs: &[InstanceDesc], rays: &[Ray]) {
     let options = BatchOptions::default().with_min_batch(0);
     let mut hits = vec![None; rays.len()];
-    scene.cast_rays_with(rays, &mut hits, &options).unwrap();
+    scene
+        .cast_ray_batch_with(rays, &mut hits, &options)
+        .unwrap();
     let mut occluded = vec![false; rays.len()];
     scene
         .occluded_batch_with(rays, &mut occluded, &options)
@@ -78,8 +80,8 @@ fn identity_instance_answers_as_the_bare_tree() {
         }
         let options = BatchOptions::default().with_min_batch(0);
         let (mut a, mut b) = (vec![None; rays.len()], vec![None; rays.len()]);
-        scene.cast_rays_with(&rays, &mut a, &options).unwrap();
-        bare.cast_rays_with(&rays, &mut b, &options).unwrap();
+        scene.cast_ray_batch_with(&rays, &mut a, &options).unwrap();
+        bare.cast_ray_batch_with(&rays, &mut b, &options).unwrap();
         let bits_of = |h: &[Option<raybatch::Hit>]| {
             h.iter().map(|h| h.as_ref().map(bits)).collect::<Vec<_>>()
         };

@@ -56,7 +56,9 @@ fn compare<A: RayQueries + BatchQueries>(
             .with_min_batch(0)
             .with_single_ray_below(single_ray_below);
         let mut hits = vec![None; rays.len()];
-        accel.cast_rays_with(rays, &mut hits, &options).unwrap();
+        accel
+            .cast_ray_batch_with(rays, &mut hits, &options)
+            .unwrap();
         let mut occluded = vec![false; rays.len()];
         accel
             .occluded_batch_with(rays, &mut occluded, &options)

@@ -24,7 +24,7 @@ fn answers(tree: &AnyAccel, rays: &[Ray]) -> Answers {
     let occluded = rays.iter().map(|ray| tree.occluded(ray)).collect();
     let mut batched = vec![None; rays.len()];
     let options = BatchOptions::default().with_parallel(false);
-    tree.cast_rays_with(rays, &mut batched, &options)
+    tree.cast_ray_batch_with(rays, &mut batched, &options)
         .expect("lengths match");
     let batched = batched.into_iter().map(opt_bits).collect();
     (closest, occluded, batched)

@@ -102,8 +102,8 @@ fn compare_typed<T: RayQueries + BatchQueries + Footprint>(
     let n = rays.len();
     let (mut typed_hits, mut any_hits) = (vec![None; n], vec![None; n]);
     let (mut typed_occ, mut any_occ) = (vec![false; n], vec![true; n]);
-    BatchQueries::cast_rays(typed, rays, &mut typed_hits).map_err(|e| e.to_string())?;
-    any.cast_rays(rays, &mut any_hits)
+    BatchQueries::cast_ray_batch(typed, rays, &mut typed_hits).map_err(|e| e.to_string())?;
+    any.cast_ray_batch(rays, &mut any_hits)
         .map_err(|e| e.to_string())?;
     BatchQueries::occluded_batch(typed, rays, &mut typed_occ).map_err(|e| e.to_string())?;
     any.occluded_batch(rays, &mut any_occ)
@@ -123,9 +123,9 @@ fn compare_typed<T: RayQueries + BatchQueries + Footprint>(
             .with_parallel(false)
             .with_min_batch(0)
             .with_max_chunk(64);
-        BatchQueries::cast_rays_with(typed, rays, &mut typed_hits, &options)
+        BatchQueries::cast_ray_batch_with(typed, rays, &mut typed_hits, &options)
             .map_err(|e| e.to_string())?;
-        any.cast_rays_with(rays, &mut any_hits, &options)
+        any.cast_ray_batch_with(rays, &mut any_hits, &options)
             .map_err(|e| e.to_string())?;
         BatchQueries::occluded_batch_with(typed, rays, &mut typed_occ, &options)
             .map_err(|e| e.to_string())?;

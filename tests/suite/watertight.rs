@@ -170,7 +170,7 @@ fn no_leaks_at_tiny_scales() {
         let zoo = structures_with(&mesh, &AccelKind::ALL, &[4], &[ChildOrdering::Pns]);
         for t in &zoo {
             let mut batched = vec![None; rays.len()];
-            t.accel.cast_rays(&rays, &mut batched).unwrap();
+            t.accel.cast_ray_batch(&rays, &mut batched).unwrap();
             for (ray, b) in rays.iter().zip(&batched) {
                 let hit = t.accel.cast_ray(ray);
                 let h = hit.unwrap_or_else(|| panic!("{}, radius {r}: leak {ray:?}", t.name));

@@ -92,7 +92,7 @@ fn check_against_brute_force<A: RayQueries + BatchQueries>(
     ] {
         let mut batch_closest = vec![None; rays.len()];
         let mut batch_occluded = vec![false; rays.len()];
-        tree.cast_rays_with(rays, &mut batch_closest, &options)
+        tree.cast_ray_batch_with(rays, &mut batch_closest, &options)
             .unwrap();
         tree.occluded_batch_with(rays, &mut batch_occluded, &options)
             .unwrap();

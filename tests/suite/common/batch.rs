@@ -217,8 +217,8 @@ pub fn batched_closest(
     let options = combo.options();
     let mut hits = vec![Some(GARBAGE); rays.len()];
     combo
-        .run(|| tree.accel.cast_rays_with(rays, &mut hits, &options))
-        .map_err(|e| format!("{} {combo:?}: cast_rays_with failed: {e}", tree.name))?;
+        .run(|| tree.accel.cast_ray_batch_with(rays, &mut hits, &options))
+        .map_err(|e| format!("{} {combo:?}: cast_ray_batch_with failed: {e}", tree.name))?;
     Ok(hits)
 }
 

@@ -46,7 +46,7 @@ pub fn scene_brute_force(
     Hit::sort(&mut all);
     SceneReference {
         closest: all.first().copied(),
-        occluded: !all.is_empty(),
+        occluded: !all.is_empty() || !ray.is_valid(),
         all,
     }
 }

@@ -187,7 +187,7 @@ pub fn batch_size_sweep(subject: &Subject, rays: &[Ray], per_ray: f64, sizes: &[
     }
     format!(
         "Batch size, closest incoherent on {}, Mrays/s, one thread, by-octant: the {} rays go \
-         through `cast_rays_with` in consecutive batches of each size (per-ray: from the table \
+         through `cast_ray_batch_with` in consecutive batches of each size (per-ray: from the table \
          above).\n\n{}",
         subject.label,
         thousands(rays.len()),

@@ -117,7 +117,7 @@ fn trace(tree: &dyn Measured, rays: &[Ray], args: &RenderArgs) -> Result<Vec<Pix
     if args.batched {
         progress::step("batched closest hits");
         let mut hits = vec![None; rays.len()];
-        tree.cast_rays(rays, &mut hits)
+        tree.cast_ray_batch(rays, &mut hits)
             .map_err(|e| CliError::input(format!("batched query failed: {e}")))?;
         return Ok(hits
             .into_iter()

@@ -7,7 +7,7 @@
 //! A [`QueryRunner`] owns its output buffers and its thread pool, so that timing a pass
 //! measures the queries and the writing of their answers, not allocation or thread start-up,
 //! and so that every engine is timed doing the same work. Two engines: [`Engine::PerRay`]
-//! (`cast_ray_with` / `occluded_with` on each ray) and [`Engine::Batched`] (`cast_rays_with` /
+//! (`cast_ray_with` / `occluded_with` on each ray) and [`Engine::Batched`] (`cast_ray_batch_with` /
 //! `occluded_batch_with` on the whole slice).
 //!
 //! Threads ([`Query::threads`]): `Some(1)` runs everything on the calling thread; `Some(n)`
@@ -55,7 +55,7 @@ impl QueryKind {
 pub enum Engine {
     /// One ray at a time (`cast_ray_with`, `occluded_with`).
     PerRay,
-    /// The whole slice at once (`cast_rays_with`, `occluded_batch_with`).
+    /// The whole slice at once (`cast_ray_batch_with`, `occluded_batch_with`).
     Batched {
         ordering: BatchOrdering,
         partition: PartitionKernel,
@@ -277,7 +277,7 @@ impl Answers {
             query,
             rays,
             |r| tree.cast_ray_with(r, kernel),
-            |r, out, options| tree.cast_rays_with(r, out, options),
+            |r, out, options| tree.cast_ray_batch_with(r, out, options),
         );
     }
 

@@ -1,0 +1,170 @@
+//! The queue's two request buffers: submitters fill the open one while a flush reads the
+//! closed one, so neither waits for the other.
+//!
+//! One word (`open`) holds the open buffer's parity in its top bit and the requests taken in
+//! the open frame in the other 63: a single atomic step both reserves slots and says which
+//! buffer they are in, and a flush closes the frame with a single swap. A submitter writes its
+//! ray's floats with relaxed stores into slots no one else was given, then counts them as
+//! written (release); the flush waits until the closed buffer's written count reaches the
+//! number of slots reserved before the swap (acquire), so it reads every ray whole.
+//!
+//! A buffer is reused two frames later. Its next frame opens at the next flush's swap, which
+//! comes after this flush has read it (flushes hold one lock in turn), so a submitter never
+//! writes into a buffer being read.
+
+use std::sync::atomic::{AtomicU32, AtomicU64, AtomicUsize, Ordering};
+
+use crossbeam::utils::CachePadded;
+use glam::Vec3;
+
+use crate::geom::Ray;
+
+/// The top bit of the open word: the open frame's parity.
+const PARITY: u64 = 1 << 63;
+
+/// One request's ray as the bits of its eight floats: origin, direction, `tmin`, `tmax`.
+#[derive(Default)]
+struct Slot([AtomicU32; 8]);
+
+impl Slot {
+    fn store(&self, ray: &Ray) {
+        let [ox, oy, oz] = ray.origin.to_array();
+        let [dx, dy, dz] = ray.dir.to_array();
+        for (cell, v) in self
+            .0
+            .iter()
+            .zip([ox, oy, oz, dx, dy, dz, ray.tmin, ray.tmax])
+        {
+            cell.store(v.to_bits(), Ordering::Relaxed);
+        }
+    }
+
+    fn load(&self) -> Ray {
+        let [ox, oy, oz, dx, dy, dz, tmin, tmax] = self
+            .0
+            .each_ref()
+            .map(|c| f32::from_bits(c.load(Ordering::Relaxed)));
+        Ray::with_range(Vec3::new(ox, oy, oz), Vec3::new(dx, dy, dz), tmin, tmax)
+    }
+}
+
+/// One frame's requests.
+struct Buffer {
+    slots: Box<[Slot]>,
+    /// Slots whose ray is completely stored.
+    written: CachePadded<AtomicUsize>,
+}
+
+/// Slots reserved by one submit: `count` of them from `first`, in frame `frame`.
+pub(super) struct Reservation {
+    pub frame: u64,
+    pub first: usize,
+    pub count: usize,
+}
+
+/// The two buffers and the open word (see the module docs).
+pub(super) struct Frames {
+    buffers: [Buffer; 2],
+    /// The open frame's parity (top bit) and requests taken in it (the other bits; may exceed
+    /// the capacity, by the requests refused).
+    open: CachePadded<AtomicU64>,
+    /// The open frame's number, for tickets; written by flushes only.
+    open_frame: AtomicU64,
+}
+
+impl Frames {
+    pub fn new(capacity: usize) -> Self {
+        let buffer = || Buffer {
+            slots: (0..capacity).map(|_| Slot::default()).collect(),
+            written: CachePadded::new(AtomicUsize::new(0)),
+        };
+        Self {
+            buffers: [buffer(), buffer()],
+            open: CachePadded::new(AtomicU64::new(0)),
+            open_frame: AtomicU64::new(0),
+        }
+    }
+
+    pub fn capacity(&self) -> usize {
+        self.buffers[0].slots.len()
+    }
+
+    /// Requests taken in the open frame.
+    pub fn taken(&self) -> usize {
+        self.taken_in(self.open.load(Ordering::Relaxed))
+    }
+
+    fn taken_in(&self, word: u64) -> usize {
+        usize::try_from(word & !PARITY).map_or(self.capacity(), |n| n.min(self.capacity()))
+    }
+
+    /// Reserves one slot of the open frame, or `None` if it is full.
+    pub fn reserve_one(&self) -> Option<Reservation> {
+        let word = self.open.fetch_add(1, Ordering::AcqRel);
+        let first = usize::try_from(word & !PARITY).ok()?;
+        (first < self.capacity()).then(|| self.reservation(word, first, 1))
+    }
+
+    /// Reserves `count` consecutive slots of the open frame, all or none.
+    pub fn reserve(&self, count: usize) -> Option<Reservation> {
+        let capacity = self.capacity();
+        let fits = |word: u64| {
+            let end = usize::try_from(word & !PARITY).ok()?.checked_add(count)?;
+            (end <= capacity).then_some(word + count as u64)
+        };
+        let word = self
+            .open
+            .fetch_update(Ordering::AcqRel, Ordering::Relaxed, fits)
+            .ok()?;
+        Some(self.reservation(word, (word & !PARITY) as usize, count))
+    }
+
+    /// The frame a reservation made on `word` belongs to. The open frame's number is read
+    /// after the reservation: either that frame or, if a flush has closed it since, the next
+    /// one, never later (that flush waits for this reservation's rays); the parity tells
+    /// which. A reservation of nothing is waited for by no flush: its frame may be off, but
+    /// its ticket names no request.
+    fn reservation(&self, word: u64, first: usize, count: usize) -> Reservation {
+        let parity = u64::from(word & PARITY != 0);
+        let open = self.open_frame.load(Ordering::Acquire);
+        let frame = if open & 1 == parity {
+            open
+        } else {
+            open.saturating_sub(1)
+        };
+        Reservation {
+            frame,
+            first,
+            count,
+        }
+    }
+
+    /// Stores `rays` in the reserved slots and counts them as written.
+    pub fn write(&self, reservation: &Reservation, rays: impl Iterator<Item = Ray>) {
+        let buffer = &self.buffers[(reservation.frame & 1) as usize];
+        let slots = &buffer.slots[reservation.first..reservation.first + reservation.count];
+        for (slot, ray) in slots.iter().zip(rays) {
+            slot.store(&ray);
+        }
+        buffer
+            .written
+            .fetch_add(reservation.count, Ordering::Release);
+    }
+
+    /// Closes the open frame, opens the next and appends the closed frame's rays to `rays`,
+    /// once every submitter that reserved a slot in it has written its ray. Returns the closed
+    /// frame's number. Only one flush may call this at a time.
+    pub fn close(&self, rays: &mut Vec<Ray>) -> u64 {
+        let frame = self.open_frame.load(Ordering::Relaxed);
+        self.open_frame.store(frame + 1, Ordering::Release);
+        let next = if frame & 1 == 0 { PARITY } else { 0 };
+        let count = self.taken_in(self.open.swap(next, Ordering::AcqRel));
+        let buffer = &self.buffers[(frame & 1) as usize];
+        while buffer.written.load(Ordering::Acquire) < count {
+            std::thread::yield_now();
+        }
+        rays.extend(buffer.slots[..count].iter().map(Slot::load));
+        buffer.written.store(0, Ordering::Relaxed);
+        frame
+    }
+}
