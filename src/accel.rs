@@ -131,6 +131,13 @@ pub(crate) fn trace_with_workspace<A: Accel, K: TriangleTest, V: Visitor>(
     });
 }
 
+/// The corners of a triangle a structure reported, by the id it reported: what a scene needs
+/// to give a hit its normal.
+pub(crate) trait Corners {
+    /// The corners of triangle `id` (an id this structure's queries report).
+    fn corners(&self, id: u32) -> [glam::Vec3; 3];
+}
+
 /// What a structure is and what it costs: for tables, reports and the catalog.
 pub trait Footprint {
     /// Short name for tables (`aabb`, `quantized`, ...).

@@ -277,6 +277,11 @@ impl AnyAccel {
         each_tree!(&self.tree, (kind, tree) => task.run(kind, tree))
     }
 
+    /// The corners of triangle `id` of the structure's mesh (an id its queries report).
+    pub(crate) fn corners(&self, id: u32) -> [glam::Vec3; 3] {
+        each_tree!(&self.tree, (_kind, tree) => crate::accel::Corners::corners(tree, id))
+    }
+
     /// The structure's kind.
     pub fn kind(&self) -> AccelKind {
         each_tree!(&self.tree, (kind, _tree) => kind)

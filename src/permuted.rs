@@ -10,8 +10,9 @@
 //! structure over the original mesh, ties included.
 
 use std::marker::PhantomData;
+use std::sync::OnceLock;
 
-use crate::accel::{Accel, Footprint, RayStream, StreamLayout};
+use crate::accel::{Accel, Corners, Footprint, RayStream, StreamLayout};
 use crate::geom::{PreparedRay, Ray, TriangleTest};
 use crate::hit::{Ids, RenamedTask, Visitor, with_renamed};
 
@@ -20,6 +21,9 @@ use crate::hit::{Ids, RenamedTask, Visitor, with_renamed};
 pub struct Permuted<A> {
     inner: A,
     to_original: Vec<u32>,
+    /// The inverse permutation, made the first time a hit's corners are asked for (scenes
+    /// giving hits their normals), so that trees never asked pay nothing.
+    to_inner: OnceLock<Vec<u32>>,
 }
 
 impl<A: Footprint> Permuted<A> {
@@ -28,7 +32,11 @@ impl<A: Footprint> Permuted<A> {
     /// come from the same build).
     pub fn new(inner: A, to_original: Vec<u32>) -> Self {
         assert_eq!(inner.triangle_count(), to_original.len());
-        Self { inner, to_original }
+        Self {
+            inner,
+            to_original,
+            to_inner: OnceLock::new(),
+        }
     }
 }
 
@@ -111,6 +119,19 @@ impl<A: Accel> Accel for Permuted<A> {
     }
 }
 
+impl<A: Corners> Corners for Permuted<A> {
+    fn corners(&self, id: u32) -> [glam::Vec3; 3] {
+        let to_inner = self.to_inner.get_or_init(|| {
+            let mut to_inner = vec![0; self.to_original.len()];
+            for (inner, &original) in self.to_original.iter().enumerate() {
+                to_inner[original as usize] = inner as u32;
+            }
+            to_inner
+        });
+        self.inner.corners(to_inner[id as usize])
+    }
+}
+
 impl<A: Footprint> Footprint for Permuted<A> {
     fn name(&self) -> &'static str {
         self.inner.name()
@@ -125,6 +146,7 @@ impl<A: Footprint> Footprint for Permuted<A> {
         self.inner.heap_bytes()
     }
     fn id_map_bytes(&self) -> usize {
-        self.inner.id_map_bytes() + self.to_original.len() * size_of::<u32>()
+        let inverse = self.to_inner.get().map_or(0, Vec::len);
+        self.inner.id_map_bytes() + (self.to_original.len() + inverse) * size_of::<u32>()
     }
 }

@@ -102,6 +102,12 @@ impl<N: NodeFormat> Bvh for AabbTree<N> {
 
 crate::query::compiled_queries!(AabbTree, QuantizedAabbTree);
 
+impl<N: NodeFormat> crate::accel::Corners for AabbTree<N> {
+    fn corners(&self, id: u32) -> [glam::Vec3; 3] {
+        self.mesh().triangle(id)
+    }
+}
+
 impl<N: NodeFormat> Footprint for AabbTree<N> {
     fn name(&self) -> &'static str {
         N::NAME

@@ -259,6 +259,12 @@ impl Accel for SpatialHash {
 
 crate::query::compiled_queries!(SpatialHash);
 
+impl crate::accel::Corners for SpatialHash {
+    fn corners(&self, id: u32) -> [glam::Vec3; 3] {
+        self.mesh().triangle(id)
+    }
+}
+
 impl Footprint for SpatialHash {
     fn name(&self) -> &'static str {
         "hash"

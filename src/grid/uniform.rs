@@ -223,6 +223,12 @@ impl Accel for UniformGrid {
 
 crate::query::compiled_queries!(UniformGrid);
 
+impl crate::accel::Corners for UniformGrid {
+    fn corners(&self, id: u32) -> [glam::Vec3; 3] {
+        self.mesh().triangle(id)
+    }
+}
+
 impl Footprint for UniformGrid {
     fn name(&self) -> &'static str {
         "grid"

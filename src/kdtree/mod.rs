@@ -136,6 +136,12 @@ impl Accel for KdTree {
 
 crate::query::compiled_queries!(KdTree);
 
+impl crate::accel::Corners for KdTree {
+    fn corners(&self, id: u32) -> [glam::Vec3; 3] {
+        self.mesh().triangle(id)
+    }
+}
+
 impl Footprint for KdTree {
     fn name(&self) -> &'static str {
         "kd"

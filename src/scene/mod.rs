@@ -5,8 +5,9 @@
 //! them ([`InstanceDesc`]: a mesh, a [`Rigid`] transform, filter layers; several instances may
 //! share a mesh), and a top-level tree over the instances' world boxes. It answers every query
 //! of [`crate::RayQueries`] and [`crate::BatchQueries`], per ray and batched, in *global*
-//! triangle ids ([`Scene::resolve`] gives instance and triangle back). [`Scene::filtered`]
-//! restricts a query to some layers.
+//! triangle ids; [`Scene::cast_ray_resolved`] and its batch form answer with what a game reads
+//! (instance, triangle, world position and normal). [`Scene::filtered`] restricts a query to
+//! some layers.
 //!
 //! **What a scene answer is.** For each instance, the ray carried into its mesh space by
 //! [`Rigid::ray_to_mesh`] (documented operations, see [`Rigid`]) is traced exactly against the
@@ -42,12 +43,13 @@
 //! )?;
 //!
 //! let ray = Ray::new(Vec3::new(0.1, 0.2, 10.0), Vec3::NEG_Z);
-//! let hit = scene.resolve(scene.cast_ray(&ray).unwrap()).unwrap();
+//! let hit = scene.cast_ray_resolved(&ray).unwrap();
 //! assert_eq!(hit.instance, 1); // the door is in front
+//! assert!(hit.normal.z.abs() > 0.8); // turned by 0.5 rad about y
 //!
 //! // Open the door (a refit of its path in the top-level tree): the ray now reaches the wall.
 //! scene.set_transform(1, Rigid::from_translation(Vec3::new(5.0, 0.0, 5.0))?)?;
-//! assert_eq!(scene.resolve(scene.cast_ray(&ray).unwrap()).unwrap().instance, 0);
+//! assert_eq!(scene.cast_ray_resolved(&ray).unwrap().instance, 0);
 //!
 //! // Batched: the same answers as one ray at a time.
 //! let rays = vec![ray; 3];
@@ -61,6 +63,7 @@ mod error;
 mod filter;
 mod instance;
 pub(crate) mod refit;
+mod resolved;
 mod rigid;
 mod top;
 mod trace;
@@ -70,4 +73,5 @@ pub use error::SceneError;
 pub use filter::SceneView;
 pub use instance::{ALL_LAYERS, Instance, InstanceDesc};
 pub use rigid::{RIGID_TOLERANCE, Rigid};
-pub use world::{Scene, SceneHit};
+pub use resolved::SceneHit;
+pub use world::Scene;

@@ -11,7 +11,6 @@ use glam::Vec3;
 
 use crate::accel::Footprint;
 use crate::catalog::AnyAccel;
-use crate::hit::Hit;
 use crate::mesh::MAX_TRIANGLES;
 use crate::scene::error::SceneError;
 use crate::scene::instance::{Instance, InstanceDesc, world_box};
@@ -29,21 +28,6 @@ pub struct Scene {
     /// Per instance, its world box and mask, in the arrays the top-level tree reads.
     boxes: Vec<crate::geom::Aabb>,
     masks: Vec<u32>,
-}
-
-/// A scene hit resolved to its instance: what a game reads.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct SceneHit {
-    /// The instance hit.
-    pub instance: u32,
-    /// The triangle's id in the instance's mesh.
-    pub triangle: u32,
-    /// Distance along the world ray, in units of its direction (see [`Rigid`]).
-    pub t: f32,
-    /// Barycentric weight of the triangle's second corner.
-    pub u: f32,
-    /// Barycentric weight of the triangle's third corner.
-    pub v: f32,
 }
 
 impl Scene {
@@ -115,18 +99,6 @@ impl Scene {
         // instance starting at or before `id`, which owns it.
         let instance = after.checked_sub(1)?;
         Some((instance as u32, id - self.instances[instance].first_id))
-    }
-
-    /// `hit` (a scene query's answer, in global ids) as instance and mesh triangle.
-    pub fn resolve(&self, hit: Hit) -> Option<SceneHit> {
-        let (instance, triangle) = self.locate(hit.triangle)?;
-        Some(SceneHit {
-            instance,
-            triangle,
-            t: hit.t,
-            u: hit.u,
-            v: hit.v,
-        })
     }
 
     /// Moves one instance and refits the top-level boxes on its path to the root

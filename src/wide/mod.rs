@@ -503,6 +503,12 @@ impl<N: NodeKind> WideBvh<N> {
 
 crate::query::compiled_queries!(WideTree, WideTree8, QuantizedWideTree, QuantizedWideTree8);
 
+impl<N: NodeKind> crate::accel::Corners for WideBvh<N> {
+    fn corners(&self, id: u32) -> [Vec3; 3] {
+        self.mesh().triangle(id)
+    }
+}
+
 impl<N: NodeKind> Footprint for WideBvh<N> {
     fn name(&self) -> &'static str {
         N::NAME

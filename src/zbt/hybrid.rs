@@ -89,6 +89,13 @@ pub struct PackedTree<const TOP_LEVEL: bool> {
 /// An AABB tree over zero-byte trees (see the module docs).
 pub type HybridTree = PackedTree<true>;
 
+/// Ids are positions in the tree's triangle order.
+impl<const TOP_LEVEL: bool> crate::accel::Corners for PackedTree<TOP_LEVEL> {
+    fn corners(&self, id: u32) -> [Vec3; 3] {
+        self.packed.corners_checked(id as usize)
+    }
+}
+
 impl HybridTree {
     /// Builds the tree by reordering `mesh`'s triangles; returns it with the permutation
     /// (`permutation[new id] = original id`). On error the mesh is handed back unchanged.

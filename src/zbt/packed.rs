@@ -150,8 +150,7 @@ impl PackedMesh {
     }
 
     /// [`PackedMesh::corners`] with checked indexing.
-    #[cfg(test)]
-    fn corners_checked(&self, position: usize) -> [Vec3; 3] {
+    pub(crate) fn corners_checked(&self, position: usize) -> [Vec3; 3] {
         self.triangles[position].map(|index| self.vertices[(index & INDEX_MASK) as usize])
     }
 

@@ -113,7 +113,7 @@ fn translated_instance_answers_as_the_tree_on_shifted_rays() {
         let hit = scene.cast_ray(&world);
         assert_eq!(opt_bits(hit), opt_bits(bare.cast_ray(&local)));
         if let Some(h) = hit {
-            let r = scene.resolve(h).unwrap();
+            let r = scene.resolve(&world, h).unwrap();
             assert_eq!((r.instance, r.triangle), (0, h.triangle));
         }
     }
@@ -174,7 +174,7 @@ fn layers_filter_instances() {
             assert_eq!(opt_bits(view.cast_ray(&ray)), opt_bits(r.closest));
             assert_eq!(view.occluded(&ray), r.occluded);
             if let Some(h) = view.cast_ray(&ray) {
-                let instance = scene.resolve(h).unwrap().instance as usize;
+                let instance = scene.resolve(&ray, h).unwrap().instance as usize;
                 assert!(descs[instance].mask & mask != 0);
             }
         }

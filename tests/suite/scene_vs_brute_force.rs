@@ -201,7 +201,7 @@ fn ties_between_instances_go_to_the_lower_instance() {
     let scene = build_scene(&meshes, &[AccelKind::Bvh4], &descs);
     let ray = Ray::new(Vec3::new(0.61, 0.13, -5.0), Vec3::Z);
     let hit = scene.cast_ray(&ray).unwrap();
-    let resolved = scene.resolve(hit).unwrap();
+    let resolved = scene.resolve(&ray, hit).unwrap();
     assert_eq!(resolved.instance, 0);
     assert_eq!(scene.all_hits(&ray).len(), 4);
     let rays = vec![ray; 64];

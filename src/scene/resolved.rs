@@ -1,0 +1,111 @@
+//! Hits a game reads: [`SceneHit`] (instance, its mesh's triangle, world position and normal)
+//! and the closest-hit queries that return it, per ray and batched, so that a game never
+//! turns global ids back into instances itself.
+
+use glam::{DVec3, Vec3};
+
+use crate::batch::BatchOptions;
+use crate::batch::chunks::for_each_chunk;
+use crate::geom::Ray;
+use crate::hit::Hit;
+use crate::query::{BatchError, BatchQueries, RayQueries};
+use crate::scene::filter::SceneView;
+use crate::scene::instance::ALL_LAYERS;
+use crate::scene::world::Scene;
+
+/// A scene hit resolved to its instance: what a game reads.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SceneHit {
+    /// The instance hit.
+    pub instance: u32,
+    /// The triangle's id in the instance's mesh.
+    pub triangle: u32,
+    /// Distance along the world ray, in units of its direction (see [`crate::scene::Rigid`]).
+    pub t: f32,
+    /// Barycentric weight of the triangle's second corner.
+    pub u: f32,
+    /// Barycentric weight of the triangle's third corner.
+    pub v: f32,
+    /// The hit point in the world: `ray.at(t)` for the world ray.
+    pub position: Vec3,
+    /// The triangle's unit normal in the world, `(b - a) x (c - a)` of its corners `a, b, c`
+    /// (the winding decides the side, whichever side the ray came from), rotated by the
+    /// instance's transform.
+    pub normal: Vec3,
+}
+
+impl Scene {
+    /// `hit` (the answer of a scene query on `ray`, in global ids) as instance, mesh triangle,
+    /// world position and normal; `None` if no triangle has its id.
+    pub fn resolve(&self, ray: &Ray, hit: Hit) -> Option<SceneHit> {
+        let (instance, triangle) = self.locate(hit.triangle)?;
+        let placed = &self.instances[instance as usize];
+        let [a, b, c] = self.meshes[placed.mesh()].corners(triangle);
+        Some(SceneHit {
+            instance,
+            triangle,
+            t: hit.t,
+            u: hit.u,
+            v: hit.v,
+            position: ray.at(hit.t),
+            normal: placed.transform().vector_to_world(unit_normal(a, b, c)),
+        })
+    }
+
+    /// The closest hit of `ray`, resolved ([`Scene::resolve`]).
+    pub fn cast_ray_resolved(&self, ray: &Ray) -> Option<SceneHit> {
+        self.filtered(ALL_LAYERS).cast_ray_resolved(ray)
+    }
+
+    /// The closest hit of every ray, resolved (`out[i]` for `rays[i]`): the same answers as
+    /// [`Scene::cast_ray_resolved`] on each ray.
+    pub fn cast_ray_batch_resolved(
+        &self,
+        rays: &[Ray],
+        out: &mut [Option<SceneHit>],
+    ) -> Result<(), BatchError> {
+        self.filtered(ALL_LAYERS)
+            .cast_ray_batch_resolved_with(rays, out, &BatchOptions::default())
+    }
+}
+
+impl SceneView<'_> {
+    /// The closest hit of `ray` on the view's layers, resolved ([`Scene::resolve`]).
+    pub fn cast_ray_resolved(&self, ray: &Ray) -> Option<SceneHit> {
+        self.cast_ray(ray)
+            .and_then(|hit| self.scene.resolve(ray, hit))
+    }
+
+    /// [`Scene::cast_ray_batch_resolved`] on the view's layers, with options: one batched
+    /// query, then the hits resolved in chunks over the threads.
+    pub fn cast_ray_batch_resolved_with(
+        &self,
+        rays: &[Ray],
+        out: &mut [Option<SceneHit>],
+        options: &BatchOptions,
+    ) -> Result<(), BatchError> {
+        let mut hits = vec![None; rays.len()];
+        if out.len() != rays.len() {
+            return Err(BatchError::LengthMismatch {
+                rays: rays.len(),
+                outputs: out.len(),
+            });
+        }
+        self.cast_ray_batch_with(rays, &mut hits, options)?;
+        let hits = &hits;
+        for_each_chunk(rays, out, (options, rays.len()), |offset, rays, out| {
+            for (k, (ray, out)) in rays.iter().zip(out).enumerate() {
+                *out = hits[offset + k].and_then(|hit| self.scene.resolve(ray, hit));
+            }
+        });
+        Ok(())
+    }
+}
+
+/// The unit normal `(b - a) x (c - a)`, computed in `f64` so that tiny triangles (which the
+/// kernel hits exactly, in `f64` where needed) still get one.
+fn unit_normal(a: Vec3, b: Vec3, c: Vec3) -> Vec3 {
+    let (a, b, c) = (a.as_dvec3(), b.as_dvec3(), c.as_dvec3());
+    let n: DVec3 = (b - a).cross(c - a);
+    n.normalize_or_zero().as_vec3()
+}

@@ -1,0 +1,80 @@
+//! Resolved scene hits: instance and mesh triangle as brute force names them, the world
+//! position `ray.at(t)` and the triangle's world normal, the same per ray and batched, for
+//! every kind of mesh tree (the zero-byte kinds reorder their triangles and must map back).
+
+use crate::common::meshes::{icosphere, transformed};
+use crate::common::rng::{in_cube, seeded};
+use crate::common::scenes::{build_scene, scene_brute_force};
+use glam::{DVec3, Quat, Vec3};
+use raybatch::scene::{InstanceDesc, Rigid, SceneHit};
+use raybatch::{AccelKind, BatchError, Kernel, Mesh, Ray};
+
+#[test]
+fn resolved_hits_name_the_triangle_and_its_world_normal() {
+    // One mesh per kind, so that every kind's ids are mapped back to corners.
+    let meshes: Vec<Mesh> = AccelKind::ALL
+        .iter()
+        .enumerate()
+        .map(|(i, _)| transformed(&icosphere(2), 0.5 + 0.1 * i as f64, DVec3::ZERO))
+        .collect();
+    let descs: Vec<InstanceDesc> = (0..2 * meshes.len())
+        .map(|i| {
+            let angle = 0.37 * i as f32;
+            let at = Vec3::new((i % 6) as f32 * 2.5 - 6.0, (i / 6) as f32 * 2.5 - 2.5, 0.0);
+            let turn = Quat::from_axis_angle(Vec3::new(1.0, 2.0, 0.5).normalize(), angle);
+            InstanceDesc::new(i % meshes.len(), Rigid::new(turn, at).unwrap())
+        })
+        .collect();
+    let scene = build_scene(&meshes, &AccelKind::ALL, &descs);
+    let mut rng = seeded(41);
+    let rays: Vec<Ray> = (0..3000)
+        .map(|_| {
+            let from = in_cube(&mut rng, 9.0);
+            Ray::new(from, in_cube(&mut rng, 4.0) - from)
+        })
+        .collect();
+    let per_ray: Vec<Option<SceneHit>> = rays.iter().map(|r| scene.cast_ray_resolved(r)).collect();
+    let mut hits = 0;
+    for (ray, got) in rays.iter().zip(&per_ray) {
+        let want = scene_brute_force(&meshes, &descs, ray, Kernel::Watertight, u32::MAX).closest;
+        assert_eq!(got.is_some(), want.is_some(), "{ray:?}");
+        let (Some(got), Some(want)) = (got, want) else {
+            continue;
+        };
+        hits += 1;
+        let d = &descs[got.instance as usize];
+        let first: u32 = descs[..got.instance as usize]
+            .iter()
+            .map(|d| meshes[d.mesh].triangle_count() as u32)
+            .sum();
+        assert_eq!(first + got.triangle, want.triangle);
+        assert_eq!((got.t, got.u, got.v), (want.t, want.u, want.v));
+        assert_eq!(got.position, ray.at(got.t));
+        let [a, b, c] = meshes[d.mesh].triangle(got.triangle);
+        let expected = d.transform.rotation() * (b - a).cross(c - a).normalize();
+        assert!((got.normal - expected).length() < 1e-5, "{got:?} {expected}");
+        assert!((got.normal.length() - 1.0).abs() < 1e-6);
+        // Rays from outside a closed outward sphere hit its outside.
+        if ray.origin.distance(d.transform.translation()) > 2.0 {
+            assert!(got.normal.dot(ray.dir) <= 0.0, "{got:?}");
+        }
+    }
+    assert!(hits > 500, "{hits} hits");
+
+    let mut batched = vec![None; rays.len()];
+    scene.cast_ray_batch_resolved(&rays, &mut batched).unwrap();
+    assert_eq!(batched, per_ray);
+    let view = scene.filtered(u32::MAX);
+    let mut with_options = vec![None; rays.len()];
+    let options = raybatch::BatchOptions::default().with_min_chunk(64);
+    view.cast_ray_batch_resolved_with(&rays, &mut with_options, &options)
+        .unwrap();
+    assert_eq!(with_options, per_ray);
+    assert_eq!(
+        scene.cast_ray_batch_resolved(&rays, &mut batched[1..]),
+        Err(BatchError::LengthMismatch {
+            rays: rays.len(),
+            outputs: rays.len() - 1
+        })
+    );
+}
