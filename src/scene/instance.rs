@@ -34,16 +34,30 @@ pub struct InstanceDesc {
     pub transform: Rigid,
     /// Filter layers: a query with mask `m` sees the instance if `mask & m != 0`.
     pub mask: u32,
+    /// The caller's own value for the instance (an entity id, an index into a material
+    /// table): carried to [`crate::scene::SceneHit::user`], never read by the scene.
+    pub user: u64,
 }
 
 impl InstanceDesc {
-    /// Mesh `mesh` at `transform`, on every layer.
+    /// Mesh `mesh` at `transform`, on every layer, with user value 0.
     pub fn new(mesh: usize, transform: Rigid) -> Self {
         Self {
             mesh,
             transform,
             mask: ALL_LAYERS,
+            user: 0,
         }
+    }
+
+    /// The same instance on layers `mask`.
+    pub fn with_mask(self, mask: u32) -> Self {
+        Self { mask, ..self }
+    }
+
+    /// The same instance with user value `user`.
+    pub fn with_user(self, user: u64) -> Self {
+        Self { user, ..self }
     }
 }
 
@@ -53,6 +67,7 @@ pub struct Instance {
     pub(crate) mesh: u32,
     pub(crate) transform: Rigid,
     pub(crate) mask: u32,
+    pub(crate) user: u64,
     pub(crate) first_id: u32,
     pub(crate) world_box: Aabb,
 }
@@ -71,6 +86,11 @@ impl Instance {
     /// Its filter layers.
     pub fn mask(&self) -> u32 {
         self.mask
+    }
+
+    /// The caller's value for it ([`InstanceDesc::user`]).
+    pub fn user(&self) -> u64 {
+        self.user
     }
 
     /// The global id of its triangle 0 (its triangle `i` is global id `first_id + i`).

@@ -72,6 +72,6 @@ mod world;
 pub use error::SceneError;
 pub use filter::SceneView;
 pub use instance::{ALL_LAYERS, Instance, InstanceDesc};
-pub use rigid::{RIGID_TOLERANCE, Rigid};
 pub use resolved::SceneHit;
+pub use rigid::{RIGID_TOLERANCE, Rigid};
 pub use world::Scene;

@@ -18,6 +18,9 @@ use crate::scene::world::Scene;
 pub struct SceneHit {
     /// The instance hit.
     pub instance: u32,
+    /// The instance's user value ([`crate::scene::InstanceDesc::user`]): which entity or
+    /// material the game attached to it.
+    pub user: u64,
     /// The triangle's id in the instance's mesh.
     pub triangle: u32,
     /// Distance along the world ray, in units of its direction (see [`crate::scene::Rigid`]).
@@ -43,6 +46,7 @@ impl Scene {
         let [a, b, c] = self.meshes[placed.mesh()].corners(triangle);
         Some(SceneHit {
             instance,
+            user: placed.user(),
             triangle,
             t: hit.t,
             u: hit.u,

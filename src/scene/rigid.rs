@@ -144,7 +144,11 @@ impl Rigid {
 
     /// A mesh-space direction in the world (rotated; rounded).
     pub fn vector_to_world(&self, v: Vec3) -> Vec3 {
-        if self.rotated { mul(&self.to_world, v) } else { v }
+        if self.rotated {
+            mul(&self.to_world, v)
+        } else {
+            v
+        }
     }
 
     /// A mesh-space point in the world (rounded; only used for boxes, which are padded).

@@ -54,6 +54,7 @@ impl Scene {
                     mesh: d.mesh as u32,
                     transform: d.transform,
                     mask: d.mask,
+                    user: d.user,
                     first_id,
                     world_box: world_box(mesh.mesh_bounds(), &d.transform),
                 };
@@ -136,6 +137,13 @@ impl Scene {
         self.instances[instance].mask = mask;
         self.masks[instance] = mask;
         self.top.refit_instance(instance, &self.boxes, &self.masks);
+        Ok(())
+    }
+
+    /// Sets an instance's user value ([`InstanceDesc::user`]).
+    pub fn set_user(&mut self, instance: usize, user: u64) -> Result<(), SceneError> {
+        self.check_instance(instance)?;
+        self.instances[instance].user = user;
         Ok(())
     }
 

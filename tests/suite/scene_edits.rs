@@ -44,10 +44,10 @@ fn descs_of(scene: &Scene) -> Vec<InstanceDesc> {
     scene
         .instances()
         .iter()
-        .map(|i| InstanceDesc {
-            mesh: i.mesh(),
-            transform: i.transform(),
-            mask: i.mask(),
+        .map(|i| {
+            InstanceDesc::new(i.mesh(), i.transform())
+                .with_mask(i.mask())
+                .with_user(i.user())
         })
         .collect()
 }

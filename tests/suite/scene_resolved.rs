@@ -23,6 +23,7 @@ fn resolved_hits_name_the_triangle_and_its_world_normal() {
             let at = Vec3::new((i % 6) as f32 * 2.5 - 6.0, (i / 6) as f32 * 2.5 - 2.5, 0.0);
             let turn = Quat::from_axis_angle(Vec3::new(1.0, 2.0, 0.5).normalize(), angle);
             InstanceDesc::new(i % meshes.len(), Rigid::new(turn, at).unwrap())
+                .with_user(1000 + i as u64)
         })
         .collect();
     let scene = build_scene(&meshes, &AccelKind::ALL, &descs);
@@ -48,11 +49,15 @@ fn resolved_hits_name_the_triangle_and_its_world_normal() {
             .map(|d| meshes[d.mesh].triangle_count() as u32)
             .sum();
         assert_eq!(first + got.triangle, want.triangle);
+        assert_eq!(got.user, 1000 + u64::from(got.instance));
         assert_eq!((got.t, got.u, got.v), (want.t, want.u, want.v));
         assert_eq!(got.position, ray.at(got.t));
         let [a, b, c] = meshes[d.mesh].triangle(got.triangle);
         let expected = d.transform.rotation() * (b - a).cross(c - a).normalize();
-        assert!((got.normal - expected).length() < 1e-5, "{got:?} {expected}");
+        assert!(
+            (got.normal - expected).length() < 1e-5,
+            "{got:?} {expected}"
+        );
         assert!((got.normal.length() - 1.0).abs() < 1e-6);
         // Rays from outside a closed outward sphere hit its outside.
         if ray.origin.distance(d.transform.translation()) > 2.0 {
@@ -70,6 +75,16 @@ fn resolved_hits_name_the_triangle_and_its_world_normal() {
     view.cast_ray_batch_resolved_with(&rays, &mut with_options, &options)
         .unwrap();
     assert_eq!(with_options, per_ray);
+    // A user value set later is the one hits carry.
+    let mut scene = scene;
+    scene.set_user(3, 7).unwrap();
+    let (ray, _) = rays
+        .iter()
+        .zip(&per_ray)
+        .find(|(_, h)| h.is_some_and(|h| h.instance == 3))
+        .expect("a ray hits instance 3");
+    assert_eq!(scene.cast_ray_resolved(ray).unwrap().user, 7);
+    assert!(scene.set_user(descs.len(), 1).is_err());
     assert_eq!(
         scene.cast_ray_batch_resolved(&rays, &mut batched[1..]),
         Err(BatchError::LengthMismatch {

@@ -92,11 +92,7 @@ pub fn translation() -> impl Strategy<Value = Vec3> {
 pub fn instances(meshes: usize, count: usize) -> impl Strategy<Value = Vec<InstanceDesc>> {
     prop::collection::vec(
         (0..meshes, rotation(), translation(), 1u32..4).prop_map(|(mesh, r, t, mask)| {
-            InstanceDesc {
-                mesh,
-                transform: Rigid::new(r, t).unwrap(),
-                mask,
-            }
+            InstanceDesc::new(mesh, Rigid::new(r, t).unwrap()).with_mask(mask)
         }),
         1..=count,
     )
