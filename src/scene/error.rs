@@ -29,6 +29,11 @@ pub enum SceneError {
         /// Instances in the scene.
         instances: usize,
     },
+    /// An edit names an instance that was removed ([`crate::scene::Scene::remove_instance`]).
+    RemovedInstance {
+        /// The instance index given.
+        instance: usize,
+    },
     /// The instances hold more triangles in total than global ids can number
     /// ([`crate::mesh::MAX_TRIANGLES`]).
     TooManyTriangles {
@@ -84,6 +89,9 @@ impl std::fmt::Display for SceneError {
                 f,
                 "instance {instance} does not exist (the scene has {instances})"
             ),
+            SceneError::RemovedInstance { instance } => {
+                write!(f, "instance {instance} was removed from the scene")
+            }
             SceneError::TooManyTriangles { count } => {
                 write!(
                     f,

@@ -70,6 +70,8 @@ pub struct Instance {
     pub(crate) user: u64,
     pub(crate) first_id: u32,
     pub(crate) world_box: Aabb,
+    /// Taken out of every query ([`crate::scene::Scene::remove_instance`]).
+    pub(crate) removed: bool,
 }
 
 impl Instance {
@@ -86,6 +88,11 @@ impl Instance {
     /// Its filter layers.
     pub fn mask(&self) -> u32 {
         self.mask
+    }
+
+    /// True once [`crate::scene::Scene::remove_instance`] took it out of every query.
+    pub fn is_removed(&self) -> bool {
+        self.removed
     }
 
     /// The caller's value for it ([`InstanceDesc::user`]).

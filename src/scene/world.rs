@@ -34,43 +34,73 @@ impl Scene {
     /// A scene of `meshes` placed as `instances` (several may share a mesh). Errors on an
     /// instance of a mesh that does not exist or more triangles than 32-bit ids can number.
     pub fn new(meshes: Vec<AnyAccel>, instances: &[InstanceDesc]) -> Result<Self, SceneError> {
-        let mut total = 0u64;
+        let mut scene = Self {
+            meshes,
+            instances: Vec::new(),
+            top: TopTree::default(),
+            boxes: Vec::new(),
+            masks: Vec::new(),
+        };
+        scene.add_instances(instances)?;
+        Ok(scene)
+    }
+
+    /// Adds instances after the last one and rebuilds the top-level tree (the meshes' trees
+    /// are untouched): for what spawns during play. Returns their indices. Their triangles
+    /// take global ids after every id given so far. Errors as [`Scene::new`]; on error
+    /// nothing changes.
+    pub fn add_instances(
+        &mut self,
+        instances: &[InstanceDesc],
+    ) -> Result<std::ops::Range<usize>, SceneError> {
+        let mut total = self.triangle_count() as u64;
         for d in instances {
-            let mesh = meshes.get(d.mesh).ok_or(SceneError::NoSuchMesh {
+            let meshes = self.meshes.len();
+            let mesh = self.meshes.get(d.mesh).ok_or(SceneError::NoSuchMesh {
                 mesh: d.mesh,
-                meshes: meshes.len(),
+                meshes,
             })?;
             total += mesh.triangle_count() as u64;
         }
         if total > MAX_TRIANGLES as u64 {
             return Err(SceneError::TooManyTriangles { count: total });
         }
-        let mut first_id = 0u32;
-        let instances: Vec<Instance> = instances
-            .iter()
-            .map(|d| {
-                let mesh = &meshes[d.mesh];
-                let instance = Instance {
-                    mesh: d.mesh as u32,
-                    transform: d.transform,
-                    mask: d.mask,
-                    user: d.user,
-                    first_id,
-                    world_box: world_box(mesh.mesh_bounds(), &d.transform),
-                };
-                first_id += mesh.triangle_count() as u32;
-                instance
-            })
-            .collect();
-        let boxes: Vec<_> = instances.iter().map(|i| i.world_box).collect();
-        let masks: Vec<_> = instances.iter().map(|i| i.mask).collect();
-        Ok(Self {
-            top: TopTree::build(&boxes, &masks),
-            meshes,
-            instances,
-            boxes,
-            masks,
-        })
+        let start = self.instances.len();
+        let mut first_id = self.triangle_count() as u32;
+        for d in instances {
+            let mesh = &self.meshes[d.mesh];
+            let instance = Instance {
+                mesh: d.mesh as u32,
+                transform: d.transform,
+                mask: d.mask,
+                user: d.user,
+                first_id,
+                world_box: world_box(mesh.mesh_bounds(), &d.transform),
+                removed: false,
+            };
+            first_id += mesh.triangle_count() as u32;
+            self.boxes.push(instance.world_box);
+            self.masks.push(instance.mask);
+            self.instances.push(instance);
+        }
+        self.rebuild_top();
+        Ok(start..self.instances.len())
+    }
+
+    /// Removes an instance from every query, refitting its path in the top-level tree
+    /// (`O(depth)`): for what is destroyed during play. It keeps its index and its global ids
+    /// (the other instances keep theirs; ids are never given again), and later edits of it are
+    /// refused with [`SceneError::RemovedInstance`].
+    pub fn remove_instance(&mut self, instance: usize) -> Result<(), SceneError> {
+        self.check_instance(instance)?;
+        let removed = &mut self.instances[instance];
+        removed.removed = true;
+        removed.mask = 0;
+        removed.world_box = crate::geom::Aabb::EMPTY;
+        self.boxes[instance] = crate::geom::Aabb::EMPTY;
+        self.masks[instance] = 0;
+        self.top.refit_instance(instance, &self.boxes, &self.masks);
+        Ok(())
     }
 
     /// The meshes.
@@ -153,14 +183,15 @@ impl Scene {
             + self.top.heap_bytes()
     }
 
+    /// Refuses an index past the instances, or a removed instance.
     fn check_instance(&self, instance: usize) -> Result<(), SceneError> {
-        if instance < self.instances.len() {
-            Ok(())
-        } else {
-            Err(SceneError::NoSuchInstance {
+        match self.instances.get(instance) {
+            Some(i) if i.removed => Err(SceneError::RemovedInstance { instance }),
+            Some(_) => Ok(()),
+            None => Err(SceneError::NoSuchInstance {
                 instance,
                 instances: self.instances.len(),
-            })
+            }),
         }
     }
 
@@ -175,7 +206,8 @@ impl Scene {
     /// Recomputes the world boxes of every instance of `mesh` and refits the top level.
     fn mesh_moved(&mut self, mesh: usize) {
         for index in 0..self.instances.len() {
-            if self.instances[index].mesh() == mesh {
+            let i = &self.instances[index];
+            if i.mesh() == mesh && !i.removed {
                 let transform = self.instances[index].transform;
                 self.place(index, transform);
             }

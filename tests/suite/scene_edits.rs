@@ -40,6 +40,7 @@ fn assert_matches(scene: &Scene, meshes: &[Mesh], descs: &[InstanceDesc], rays: 
     }
 }
 
+/// The descriptions of `scene`'s instances as they are now (a removed one on no layer).
 fn descs_of(scene: &Scene) -> Vec<InstanceDesc> {
     scene
         .instances()
@@ -319,4 +320,95 @@ fn a_refit_that_collapses_a_triangle_is_refused() {
         Err(SceneError::NewlyDegenerateTriangle { triangle: 1 })
     );
     assert_eq!(scene.cast_ray(&ray), before);
+}
+
+/// Instances added and removed during play: the scene answers as brute force over its live
+/// instances, and as a scene built from scratch over them (same instance, triangle and hit,
+/// per ray and batched); removed instances keep their index, refuse edits, and a refused
+/// addition changes nothing.
+#[test]
+fn added_and_removed_instances_answer_as_a_scene_built_from_scratch() {
+    let meshes = vec![icosphere(1), icosphere(2)];
+    let place = |i: usize| {
+        let at = Vec3::new((i % 4) as f32 * 2.2 - 3.3, (i / 4) as f32 * 2.2 - 3.3, 0.0);
+        InstanceDesc::new(
+            i % 2,
+            Rigid::new(Quat::from_rotation_z(i as f32), at).unwrap(),
+        )
+        .with_user(i as u64)
+    };
+    let mut scene = build_scene(
+        &meshes,
+        &[AccelKind::Bvh8, AccelKind::Zbt],
+        &[place(0), place(1)],
+    );
+    assert_eq!(
+        scene.add_instances(&[place(2), place(3), place(4)]),
+        Ok(2..5)
+    );
+    scene.remove_instance(1).unwrap();
+    assert_eq!(scene.add_instances(&[place(5), place(6)]), Ok(5..7));
+    scene.remove_instance(5).unwrap();
+    scene
+        .set_transform(
+            6,
+            Rigid::from_translation(Vec3::new(0.0, 3.0, 1.0)).unwrap(),
+        )
+        .unwrap();
+
+    for edit in [
+        scene.remove_instance(1),
+        scene.set_mask(5, 1),
+        scene.set_user(5, 1),
+        scene.set_transform(1, Rigid::IDENTITY),
+    ] {
+        assert!(
+            matches!(edit, Err(SceneError::RemovedInstance { .. })),
+            "{edit:?}"
+        );
+    }
+    let before = scene.instances().len();
+    assert!(matches!(
+        scene.add_instances(&[place(7), InstanceDesc::new(9, Rigid::IDENTITY)]),
+        Err(SceneError::NoSuchMesh { mesh: 9, .. })
+    ));
+    assert_eq!(scene.instances().len(), before);
+    assert!(scene.instances()[1].is_removed() && scene.instances()[5].is_removed());
+
+    // Rays from all around aimed near the instances, removed ones included.
+    let mut rng = seeded(21);
+    let rays: Vec<Ray> = (0..600)
+        .map(|k| {
+            let from = crate::common::rng::in_cube(&mut rng, 9.0);
+            let near =
+                place(k % 7).transform.translation() + crate::common::rng::in_cube(&mut rng, 0.8);
+            Ray::new(from, near - from)
+        })
+        .collect();
+    assert_matches(&scene, &meshes, &descs_of(&scene), &rays);
+
+    let live: Vec<usize> = (0..scene.instances().len())
+        .filter(|&i| !scene.instances()[i].is_removed())
+        .collect();
+    let fresh_descs: Vec<InstanceDesc> = descs_of(&scene)
+        .into_iter()
+        .enumerate()
+        .filter(|(i, _)| live.contains(i))
+        .map(|(_, d)| d)
+        .collect();
+    let fresh = build_scene(&meshes, &[AccelKind::Bvh8, AccelKind::Zbt], &fresh_descs);
+    let mut batched = vec![None; rays.len()];
+    scene.cast_ray_batch_resolved(&rays, &mut batched).unwrap();
+    let mut hits = 0;
+    for (ray, got) in rays.iter().zip(&batched) {
+        let want = fresh.cast_ray_resolved(ray);
+        let renamed = got.map(|h| raybatch::scene::SceneHit {
+            instance: live.iter().position(|&i| i == h.instance as usize).unwrap() as u32,
+            ..h
+        });
+        assert_eq!(renamed, want, "{ray:?}");
+        assert_eq!(*got, scene.cast_ray_resolved(ray));
+        hits += usize::from(got.is_some());
+    }
+    assert!(hits > 300, "{hits} hits");
 }
