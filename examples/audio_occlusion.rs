@@ -19,7 +19,7 @@ use rand::rngs::StdRng;
 use raybatch::glam::Vec3;
 use raybatch::scene::Scene;
 use raybatch::users::{Materials, Occlusion, occlusion, occlusion_batch};
-use raybatch::{AccelKind, BuildOptions, Mesh, Ray};
+use raybatch::{Mesh, Ray};
 use town::Town;
 
 const SOURCES: usize = 64;
@@ -38,13 +38,8 @@ fn main() {
         .nth(1)
         .map_or(100, |a| a.parse().expect("a number"));
     let town = Town::new(16, 0, 31);
-    let trees = town
-        .meshes
-        .iter()
-        .map(|m| AccelKind::for_mesh(m).build(m.clone(), &BuildOptions::default()))
-        .collect::<Result<Vec<_>, _>>()
-        .expect("the town builds");
-    let scene = Scene::new(trees, &town.instances).expect("the instances place existing meshes");
+    // Each mesh with the tree the scene picks for it.
+    let scene = Scene::from_meshes(town.meshes.clone(), &town.instances).expect("the town builds");
     let tables = town.meshes.iter().map(wall_losses).collect();
     let materials = Materials::new(&scene, tables).expect("one loss per triangle");
 

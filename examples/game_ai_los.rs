@@ -24,7 +24,7 @@ use rand::{RngExt, SeedableRng};
 use raybatch::glam::Vec3;
 use raybatch::scene::{Rigid, Scene};
 use raybatch::users::{LosQueue, Ticket};
-use raybatch::{AccelKind, BatchQueries, BuildOptions, Ray, RayQueries};
+use raybatch::{BatchQueries, Ray, RayQueries};
 use rayon::prelude::*;
 use town::{Town, yawed};
 
@@ -157,15 +157,9 @@ fn main() {
     println!("  all four gave the same answer on every sightline of every frame");
 }
 
-/// Every mesh with the tree the library picks for it.
+/// Every mesh with the tree the scene picks for it.
 fn build_scene(town: &Town) -> Scene {
-    let trees = town
-        .meshes
-        .iter()
-        .map(|m| AccelKind::for_mesh(m).build(m.clone(), &BuildOptions::default()))
-        .collect::<Result<Vec<_>, _>>()
-        .expect("the town builds");
-    Scene::new(trees, &town.instances).expect("the instances place existing meshes")
+    Scene::from_meshes(town.meshes.clone(), &town.instances).expect("the town builds")
 }
 
 /// One frame of motion: agents shuffle, vehicles drive and turn (one refit of the top level).

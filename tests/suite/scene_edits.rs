@@ -412,3 +412,27 @@ fn added_and_removed_instances_answer_as_a_scene_built_from_scratch() {
     }
     assert!(hits > 300, "{hits} hits");
 }
+
+/// `Scene::from_meshes` builds small meshes as 4-wide trees and the others as the library's
+/// pick for them, and answers as brute force.
+#[test]
+fn scenes_pick_a_kind_per_mesh() {
+    let meshes = vec![icosphere(1), icosphere(3)];
+    assert!(meshes[0].triangle_count() < 256 && meshes[1].triangle_count() >= 256);
+    let descs: Vec<InstanceDesc> = (0..6)
+        .map(|i| {
+            let at = Vec3::new(i as f32 * 2.5 - 6.0, 0.0, 0.0);
+            InstanceDesc::new(i % 2, Rigid::from_translation(at).unwrap())
+        })
+        .collect();
+    let scene = Scene::from_meshes(meshes.clone(), &descs).unwrap();
+    assert_eq!(scene.meshes()[0].kind(), AccelKind::Bvh4);
+    assert_eq!(scene.meshes()[1].kind(), AccelKind::for_mesh(&meshes[1]));
+    assert_eq!(Scene::kind_for(&meshes[1]), AccelKind::for_mesh(&meshes[1]));
+    assert_matches(&scene, &meshes, &descs, &sphere_rays(300, 5));
+    let bad = [InstanceDesc::new(2, Rigid::IDENTITY)];
+    assert!(matches!(
+        Scene::from_meshes(meshes, &bad),
+        Err(SceneError::NoSuchMesh { mesh: 2, meshes: 2 })
+    ));
+}
