@@ -105,7 +105,8 @@ pub struct Materials {
 impl Materials {
     /// The losses of `scene`'s meshes: `tables[m][t]` for triangle `t` of mesh `m` (extra
     /// entries are ignored). Errors, and builds nothing, on a missing or short table or a
-    /// negative or non-finite loss.
+    /// negative or non-finite loss. The table follows the scene's instances as they are now:
+    /// make it again after [`Scene::add_instances`] (until then, added instances lose nothing).
     pub fn new(scene: &Scene, tables: Vec<Vec<f32>>) -> Result<Self, AudioError> {
         if tables.len() != scene.meshes().len() {
             return Err(AudioError::WrongTableCount {
