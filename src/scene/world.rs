@@ -64,8 +64,8 @@ impl Scene {
     /// (under 256 triangles: a level's boxes, props and vehicles), whose walks
     /// are a level or two deep and where a 4-wide node tests fewer empty slots than an 8-wide
     /// one; [`AccelKind::for_mesh`] otherwise. On the town of the `game_ai_los` example
-    /// (meshes of 12 to about 60 triangles) the 4-wide tree answers sightlines 10% faster per
-    /// ray and 7% faster batched than the 8-wide one (docs/benchmarks.md).
+    /// (meshes of 12 to about 60 triangles) the 4-wide tree answers sightlines about 6% faster
+    /// per ray and 2% faster batched than the 8-wide one (docs/benchmarks.md).
     pub fn kind_for(mesh: &Mesh) -> AccelKind {
         if mesh.triangle_count() < SMALL_MESH {
             AccelKind::Bvh4
