@@ -15,6 +15,11 @@ pub enum SceneError {
         /// The quaternion's squared length.
         norm2: f32,
     },
+    /// A scale outside [`crate::scene::Rigid::SCALES`], or NaN.
+    BadScale {
+        /// The scale given.
+        scale: f32,
+    },
     /// An instance names a mesh the scene does not hold.
     NoSuchMesh {
         /// The mesh index given.
@@ -79,6 +84,9 @@ impl std::fmt::Display for SceneError {
                 f,
                 "transform is not rigid: rotation quaternion has squared length {norm2}"
             ),
+            SceneError::BadScale { scale } => {
+                write!(f, "scale {scale} is outside 2^-20..=2^20")
+            }
             SceneError::NoSuchMesh { mesh, meshes } => {
                 write!(f, "mesh {mesh} does not exist (the scene has {meshes})")
             }

@@ -121,7 +121,7 @@ pub(crate) fn world_box(mesh_box: Aabb, transform: &Rigid) -> Aabb {
         world = world.grow(transform.point_to_world(c));
         reach = reach.max(l1(c));
     }
-    let pad = PAD * (reach + l1(transform.translation()));
+    let pad = PAD * (reach * transform.scale() + l1(transform.translation()));
     Aabb::new(world.min - pad, world.max + pad)
 }
 
@@ -172,7 +172,11 @@ mod tests {
                 rng.range(0.0, 6.3)
             };
             let rotation = Quat::from_axis_angle(axis, angle);
-            let transform = Rigid::new(rotation, rng.vec3(scale)).unwrap();
+            let size = [1.0, 1e-3, 37.5, 1.0 / 1048576.0][round % 4];
+            let transform = Rigid::new(rotation, rng.vec3(scale))
+                .unwrap()
+                .with_scale(size)
+                .unwrap();
             let a = rng.vec3(10.0);
             let mesh_box = Aabb::new(a, a + rng.vec3(5.0).abs() + 1e-3);
             // A point on a face of the box, where rounding can carry it outside.

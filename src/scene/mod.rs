@@ -1,8 +1,8 @@
 //! Scenes: many meshes, each with its own tree, placed in the world as instances with rigid
-//! transforms, behind the same interface as one tree.
+//! transforms (and uniform scales), behind the same interface as one tree.
 //!
 //! A [`Scene`] holds meshes (any tree kind, chosen per mesh: [`crate::AnyAccel`]), instances of
-//! them ([`InstanceDesc`]: a mesh, a [`Rigid`] transform, filter layers; several instances may
+//! them ([`InstanceDesc`]: a mesh, a [`Rigid`] transform, filter layers, a user value; several instances may
 //! share a mesh), and a top-level tree over the instances' world boxes. It answers every query
 //! of [`crate::RayQueries`] and [`crate::BatchQueries`], per ray and batched, in *global*
 //! triangle ids; [`Scene::cast_ray_resolved`] and its batch form answer with what a game reads

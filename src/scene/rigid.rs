@@ -1,5 +1,6 @@
-//! [`Rigid`]: where an instance sits in the world (a rotation and a translation), and the one
-//! documented way a world ray is carried into the instance's mesh space.
+//! [`Rigid`]: where an instance sits in the world (a rotation, a uniform scale and a
+//! translation), and the one documented way a world ray is carried into the instance's mesh
+//! space.
 
 use glam::{Mat3, Quat, Vec3};
 
@@ -11,17 +12,19 @@ use crate::scene::error::SceneError;
 /// before it is rejected as non-rigid rather than renormalised.
 pub const RIGID_TOLERANCE: f32 = 1e-4;
 
-/// A rigid transform, mesh space to world space: `world = rotation * mesh + translation`.
-/// Built only through [`Rigid::new`] (or the constants), so every value is finite and its
-/// rotation a unit quaternion.
+/// A rigid transform with an optional uniform scale, mesh space to world space:
+/// `world = rotation * (scale * mesh) + translation` (the scale 1 unless set by
+/// [`Rigid::with_scale`]). Built only through [`Rigid::new`] (or the constants), so every
+/// value is finite, its rotation a unit quaternion and its scale within [`Rigid::SCALES`].
 ///
 /// **The transform contract.** A scene answers a world ray on an instance by tracing the ray
 /// [`Rigid::ray_to_mesh`] returns, exactly (watertight kernel, tie rule) against the instance's
 /// mesh. That function is the definition: `origin' = M * (origin - translation)` and
 /// `dir' = M * dir` (the direction with subnormal components flushed, as every query does), with
-/// `M` the transpose of the rotation's matrix and each product evaluated as
-/// `M.x_axis * v.x + M.y_axis * v.y + M.z_axis * v.z`, left to right, without FMA; `tmin`
-/// and `tmax` are kept. An instance whose rotation is exactly the identity skips the product:
+/// `M` the transpose of the rotation's matrix times `1 / scale` (each entry rounded once) and
+/// each product evaluated as `M.x_axis * v.x + M.y_axis * v.y + M.z_axis * v.z`, left to right,
+/// without FMA; `tmin` and `tmax` are kept, so a scaled instance's `t` is the world `t` too. An
+/// instance whose rotation is exactly the identity and scale exactly 1 skips the product:
 /// `origin' = origin - translation`, `dir' = dir`, so at the identity transform a scene answers
 /// bit for bit as the bare tree.
 ///
@@ -31,18 +34,20 @@ pub const RIGID_TOLERANCE: f32 = 1e-4;
 /// of their own size, which moves a hit at mesh-space point `p` by about
 /// `10 eps (|origin - translation| + |p|)` along the ray (`eps = 2^-23`), so its `t` by that
 /// over `|dir|`: small next to `t` unless the origin is far from the instance compared with the
-/// hit distance. Hits of different instances are compared by that `t`, and the tie rule then
+/// hit distance. A scale divides mesh-space lengths by itself and leaves `t` as it is: the
+/// same bound holds with `|origin - translation|` over the scale. Hits of different instances are compared by that `t`, and the tie rule then
 /// picks the lowest global triangle id.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Rigid {
     rotation: Quat,
+    scale: f32,
     translation: Vec3,
-    /// Mesh to world rotation matrix (columns), for world boxes.
+    /// Mesh to world matrix (columns: the rotation's times the scale), for world boxes.
     to_world: Mat3,
-    /// World to mesh rotation matrix: the transpose of `to_world`.
+    /// World to mesh matrix: the rotation's transpose times `1 / scale`.
     to_mesh: Mat3,
-    /// True unless the rotation is exactly the identity quaternion.
-    rotated: bool,
+    /// True unless the rotation is exactly the identity quaternion and the scale exactly 1.
+    linear: bool,
 }
 
 impl Default for Rigid {
@@ -55,10 +60,11 @@ impl Rigid {
     /// The identity: mesh space is world space.
     pub const IDENTITY: Rigid = Rigid {
         rotation: Quat::IDENTITY,
+        scale: 1.0,
         translation: Vec3::ZERO,
         to_world: Mat3::IDENTITY,
         to_mesh: Mat3::IDENTITY,
-        rotated: false,
+        linear: false,
     };
 
     /// The transform rotating by `rotation`, then moving by `translation`. The quaternion is
@@ -77,14 +83,32 @@ impl Rigid {
         } else {
             rotation.normalize()
         };
-        let to_world = Mat3::from_quat(rotation);
-        Ok(Self {
+        Ok(Self::with_parts(rotation, 1.0, translation))
+    }
+
+    /// The scales [`Rigid::with_scale`] accepts: from 2^-20 to 2^20.
+    pub const SCALES: std::ops::RangeInclusive<f32> = 1.0 / 1048576.0..=1048576.0;
+
+    /// The same transform scaling the mesh by `scale` first (uniformly: angles, normals and
+    /// `t` are kept): one mesh for boxes or rocks of many sizes. A scale outside
+    /// [`Rigid::SCALES`] (or NaN) is [`SceneError::BadScale`].
+    pub fn with_scale(self, scale: f32) -> Result<Self, SceneError> {
+        if !Self::SCALES.contains(&scale) {
+            return Err(SceneError::BadScale { scale });
+        }
+        Ok(Self::with_parts(self.rotation, scale, self.translation))
+    }
+
+    fn with_parts(rotation: Quat, scale: f32, translation: Vec3) -> Self {
+        let turn = Mat3::from_quat(rotation);
+        Self {
             rotation,
+            scale,
             translation,
-            to_world,
-            to_mesh: to_world.transpose(),
-            rotated: rotation != Quat::IDENTITY,
-        })
+            to_world: turn * scale,
+            to_mesh: turn.transpose() * (1.0 / scale),
+            linear: rotation != Quat::IDENTITY || scale != 1.0,
+        }
     }
 
     /// A pure translation (exact: the ray's origin is shifted, its direction kept).
@@ -96,12 +120,17 @@ impl Rigid {
     /// world space and `ray_to_mesh` returns every ray bit for bit (`x - (+0) = x`, even for
     /// `x = -0`; a `-0` translation would turn a `-0` origin into `+0`, so it is excluded).
     pub fn is_identity(&self) -> bool {
-        !self.rotated && self.translation.to_array().iter().all(|c| c.to_bits() == 0)
+        !self.linear && self.translation.to_array().iter().all(|c| c.to_bits() == 0)
     }
 
     /// The rotation (unit length).
     pub fn rotation(&self) -> Quat {
         self.rotation
+    }
+
+    /// The uniform scale (1 unless set by [`Rigid::with_scale`]).
+    pub fn scale(&self) -> f32 {
+        self.scale
     }
 
     /// The translation.
@@ -115,7 +144,7 @@ impl Rigid {
     pub fn ray_to_mesh(&self, ray: &Ray) -> Ray {
         let dir = flush_subnormals(ray.dir);
         let offset = ray.origin - self.translation;
-        let (origin, dir) = if self.rotated {
+        let (origin, dir) = if self.linear {
             (mul(&self.to_mesh, offset), mul(&self.to_mesh, dir))
         } else {
             (offset, dir)
@@ -129,7 +158,7 @@ impl Rigid {
     /// the same direction): the fast path of translated instances, such as terrain tiles.
     #[inline]
     pub(crate) fn prepared_to_mesh(&self, ray: &PreparedRay, tmax: f32) -> Option<PreparedRay> {
-        if self.rotated {
+        if self.linear {
             let world = Ray::with_range(ray.origin, ray.dir, ray.tmin, tmax);
             return PreparedRay::new(&self.ray_to_mesh(&world));
         }
@@ -142,12 +171,12 @@ impl Rigid {
         })
     }
 
-    /// A mesh-space direction in the world (rotated; rounded).
+    /// A mesh-space direction in the world, rotated (not scaled; rounded).
     pub fn vector_to_world(&self, v: Vec3) -> Vec3 {
-        if self.rotated {
-            mul(&self.to_world, v)
-        } else {
+        if self.rotation == Quat::IDENTITY {
             v
+        } else {
+            self.rotation * v
         }
     }
 

@@ -93,3 +93,38 @@ fn resolved_hits_name_the_triangle_and_its_world_normal() {
         })
     );
 }
+
+/// A scaled instance: hits where the scaled mesh is (a unit sphere scaled by 3 is hit at
+/// distance 3 from its centre), the world `t` and normal, and a scale out of range is refused.
+#[test]
+fn scaled_instances_are_hit_where_the_scaled_mesh_is() {
+    use raybatch::RayQueries;
+    use raybatch::scene::{Scene, SceneError};
+    let sphere = icosphere(3);
+    let at = Vec3::new(10.0, 0.0, 0.0);
+    let big = Rigid::new(Quat::from_rotation_y(0.3), at)
+        .unwrap()
+        .with_scale(3.0)
+        .unwrap();
+    let scene = Scene::from_meshes(vec![sphere], &[InstanceDesc::new(0, big)]).unwrap();
+    let ray = Ray::new(Vec3::ZERO, Vec3::X);
+    let hit = scene.cast_ray_resolved(&ray).unwrap();
+    assert!((hit.t - 7.0).abs() < 0.03, "{hit:?}"); // the icosphere's faces lie inside r = 1
+    assert!((hit.normal.length() - 1.0).abs() < 1e-6 && hit.normal.x < -0.95);
+    assert!(scene.occluded(&Ray::segment(
+        Vec3::new(10.0, 0.0, 2.8),
+        Vec3::new(10.0, 0.0, 3.2)
+    )));
+    assert!(!scene.occluded(&Ray::segment(
+        Vec3::new(10.0, 0.0, 3.1),
+        Vec3::new(10.0, 0.0, 4.0)
+    )));
+    for scale in [0.0, -1.0, f32::NAN, f32::INFINITY, 1e-7, 2e6] {
+        let refused = Rigid::IDENTITY.with_scale(scale);
+        assert!(
+            matches!(refused, Err(SceneError::BadScale { .. })),
+            "{scale}"
+        );
+    }
+    assert_eq!(Rigid::IDENTITY.with_scale(1.0).unwrap(), Rigid::IDENTITY);
+}

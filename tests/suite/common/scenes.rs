@@ -88,12 +88,20 @@ pub fn translation() -> impl Strategy<Value = Vec3> {
     ]
 }
 
+/// Uniform scales: mostly 1, else from a quarter to four times.
+pub fn scale() -> impl Strategy<Value = f32> {
+    prop_oneof![2 => Just(1.0f32), 1 => 0.25f32..4.0]
+}
+
 /// Up to `count` instances of meshes `0..meshes`, on layers 1, 2 or both.
 pub fn instances(meshes: usize, count: usize) -> impl Strategy<Value = Vec<InstanceDesc>> {
     prop::collection::vec(
-        (0..meshes, rotation(), translation(), 1u32..4).prop_map(|(mesh, r, t, mask)| {
-            InstanceDesc::new(mesh, Rigid::new(r, t).unwrap()).with_mask(mask)
-        }),
+        (0..meshes, rotation(), scale(), translation(), 1u32..4).prop_map(
+            |(mesh, r, s, t, mask)| {
+                let transform = Rigid::new(r, t).unwrap().with_scale(s).unwrap();
+                InstanceDesc::new(mesh, transform).with_mask(mask)
+            },
+        ),
         1..=count,
     )
 }
