@@ -100,7 +100,7 @@ fn main() {
 
         let t = Instant::now();
         submit_from_two_threads(&queue, &segments, &mut tickets);
-        queue.flush(&scene);
+        queue.flush(&scene).expect("one flush at a time");
         for (half, list) in tickets.iter().enumerate() {
             let offset = half * segments.len().div_ceil(2);
             for (k, &ticket) in list.iter().enumerate() {
@@ -111,7 +111,7 @@ fn main() {
 
         let t = Instant::now();
         let firsts = submit_lists_from_two_threads(&queue, &segments);
-        queue.flush(&scene);
+        queue.flush(&scene).expect("one flush at a time");
         let half = segments.len().div_ceil(2);
         for (k, out) in listed.iter_mut().enumerate() {
             let ticket = firsts[k / half].offset(k % half);

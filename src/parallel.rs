@@ -73,6 +73,20 @@ pub(crate) fn map<T: Send>(
     }
 }
 
+/// `items.into_iter().map(item)` collected in order, [`map`] for owned items.
+pub(crate) fn map_owned<T: Send, U: Send>(
+    parallel: bool,
+    items: Vec<T>,
+    item: impl Fn(T) -> U + Sync + Send,
+) -> Vec<U> {
+    use rayon::prelude::*;
+    if enabled(parallel) {
+        items.into_par_iter().map(item).collect()
+    } else {
+        items.into_iter().map(item).collect()
+    }
+}
+
 /// Runs `worker` as `count` tasks at once in the current pool (each runs until it finds no
 /// more work), or once on the calling thread when `count` is 1 or threads are not available.
 pub(crate) fn workers(count: usize, worker: impl Fn() + Sync) {

@@ -22,7 +22,8 @@ pub struct Permuted<A> {
     inner: A,
     to_original: Vec<u32>,
     /// The inverse permutation, made the first time a hit's corners are asked for (scenes
-    /// giving hits their normals), so that trees never asked pay nothing.
+    /// giving hits their normals), so that trees never asked pay nothing; from then on it
+    /// counts in `id_map_bytes`.
     to_inner: OnceLock<Vec<u32>>,
 }
 

@@ -10,8 +10,9 @@ use crate::geom::{Kernel, KernelTask, PreparedRay, Ray, TriangleTest};
 use crate::hit::{Any, Closest, CountingClosest, EachHit, Hit, Visitor};
 
 /// The single-ray queries. Every structure of the crate implements them (each compiled once,
-/// in this crate); invalid rays miss and are occluded (see [`Ray::validate`]), and on equal `t` the lowest
-/// triangle id wins. Usable as a trait object (`&dyn RayQueries`) but for its generic methods.
+/// in this crate); invalid rays miss and are occluded (see [`Ray::validate`]), and on equal
+/// `t` the lowest triangle id wins. Usable as a trait object (`&dyn RayQueries`) but for its
+/// generic methods.
 pub trait RayQueries {
     /// The closest hit (watertight kernel), or `None`.
     fn cast_ray(&self, ray: &Ray) -> Option<Hit> {

@@ -1,13 +1,13 @@
 //! Scenes: many meshes, each with its own tree, placed in the world as instances with rigid
 //! transforms (and uniform scales), behind the same interface as one tree.
 //!
-//! A [`Scene`] holds meshes (any tree kind, chosen per mesh: [`crate::AnyAccel`]), instances of
-//! them ([`InstanceDesc`]: a mesh, a [`Rigid`] transform, filter layers, a user value; several instances may
-//! share a mesh), and a top-level tree over the instances' world boxes. It answers every query
-//! of [`crate::RayQueries`] and [`crate::BatchQueries`], per ray and batched, in *global*
-//! triangle ids; [`Scene::cast_ray_resolved`] and its batch form answer with what a game reads
-//! (instance, triangle, world position and normal). [`Scene::filtered`] restricts a query to
-//! some layers.
+//! A [`Scene`] holds meshes (any tree kind, chosen per mesh: [`crate::AnyAccel`]), instances
+//! of them ([`InstanceDesc`]: a mesh, a [`Rigid`] transform, filter layers, a user value;
+//! several instances may share a mesh), and a top-level tree over the instances' world boxes.
+//! It answers every query of [`crate::RayQueries`] and [`crate::BatchQueries`], per ray and
+//! batched, in *global* triangle ids; [`Scene::cast_ray_resolved`] and its batch form answer
+//! with what a game reads (instance, triangle, world position and normal).
+//! [`Scene::filtered`] restricts a query to some layers.
 //!
 //! **What a scene answer is.** For each instance, the ray carried into its mesh space by
 //! [`Rigid::ray_to_mesh`] (documented operations, see [`Rigid`]) is traced exactly against the

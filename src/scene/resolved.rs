@@ -68,8 +68,18 @@ impl Scene {
         rays: &[Ray],
         out: &mut [Option<SceneHit>],
     ) -> Result<(), BatchError> {
+        self.filtered(ALL_LAYERS).cast_ray_batch_resolved(rays, out)
+    }
+
+    /// [`Scene::cast_ray_batch_resolved`] with options.
+    pub fn cast_ray_batch_resolved_with(
+        &self,
+        rays: &[Ray],
+        out: &mut [Option<SceneHit>],
+        options: &BatchOptions,
+    ) -> Result<(), BatchError> {
         self.filtered(ALL_LAYERS)
-            .cast_ray_batch_resolved_with(rays, out, &BatchOptions::default())
+            .cast_ray_batch_resolved_with(rays, out, options)
     }
 }
 
@@ -80,6 +90,15 @@ impl SceneView<'_> {
             .and_then(|hit| self.scene.resolve(ray, hit))
     }
 
+    /// [`Scene::cast_ray_batch_resolved`] on the view's layers.
+    pub fn cast_ray_batch_resolved(
+        &self,
+        rays: &[Ray],
+        out: &mut [Option<SceneHit>],
+    ) -> Result<(), BatchError> {
+        self.cast_ray_batch_resolved_with(rays, out, &BatchOptions::default())
+    }
+
     /// [`Scene::cast_ray_batch_resolved`] on the view's layers, with options: one batched
     /// query, then the hits resolved in chunks over the threads.
     pub fn cast_ray_batch_resolved_with(
@@ -88,13 +107,13 @@ impl SceneView<'_> {
         out: &mut [Option<SceneHit>],
         options: &BatchOptions,
     ) -> Result<(), BatchError> {
-        let mut hits = vec![None; rays.len()];
         if out.len() != rays.len() {
             return Err(BatchError::LengthMismatch {
                 rays: rays.len(),
                 outputs: out.len(),
             });
         }
+        let mut hits = vec![None; rays.len()];
         self.cast_ray_batch_with(rays, &mut hits, options)?;
         let hits = &hits;
         for_each_chunk(rays, out, (options, rays.len()), |offset, rays, out| {

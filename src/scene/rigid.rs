@@ -21,7 +21,8 @@ pub const RIGID_TOLERANCE: f32 = 1e-4;
 /// [`Rigid::ray_to_mesh`] returns, exactly (watertight kernel, tie rule) against the instance's
 /// mesh. That function is the definition: `origin' = M * (origin - translation)` and
 /// `dir' = M * dir` (the direction with subnormal components flushed, as every query does), with
-/// `M` the transpose of the rotation's matrix times `1 / scale` (each entry rounded once) and
+/// `M` the transpose of the rotation's matrix times `1 / scale` (in `f32`, as
+/// [`Rigid::with_scale`] computes it once) and
 /// each product evaluated as `M.x_axis * v.x + M.y_axis * v.y + M.z_axis * v.z`, left to right,
 /// without FMA; `tmin` and `tmax` are kept, so a scaled instance's `t` is the world `t` too. An
 /// instance whose rotation is exactly the identity and scale exactly 1 skips the product:
@@ -35,8 +36,8 @@ pub const RIGID_TOLERANCE: f32 = 1e-4;
 /// `10 eps (|origin - translation| + |p|)` along the ray (`eps = 2^-23`), so its `t` by that
 /// over `|dir|`: small next to `t` unless the origin is far from the instance compared with the
 /// hit distance. A scale divides mesh-space lengths by itself and leaves `t` as it is: the
-/// same bound holds with `|origin - translation|` over the scale. Hits of different instances are compared by that `t`, and the tie rule then
-/// picks the lowest global triangle id.
+/// same bound holds with `|origin - translation|` over the scale. Hits of different instances
+/// are compared by that `t`, and the tie rule then picks the lowest global triangle id.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Rigid {
     rotation: Quat,
@@ -47,7 +48,7 @@ pub struct Rigid {
     /// World to mesh matrix: the rotation's transpose times `1 / scale`.
     to_mesh: Mat3,
     /// True unless the rotation is exactly the identity quaternion and the scale exactly 1.
-    linear: bool,
+    rotated_or_scaled: bool,
 }
 
 impl Default for Rigid {
@@ -64,7 +65,7 @@ impl Rigid {
         translation: Vec3::ZERO,
         to_world: Mat3::IDENTITY,
         to_mesh: Mat3::IDENTITY,
-        linear: false,
+        rotated_or_scaled: false,
     };
 
     /// The transform rotating by `rotation`, then moving by `translation`. The quaternion is
@@ -89,9 +90,12 @@ impl Rigid {
     /// The scales [`Rigid::with_scale`] accepts: from 2^-20 to 2^20.
     pub const SCALES: std::ops::RangeInclusive<f32> = 1.0 / 1048576.0..=1048576.0;
 
-    /// The same transform scaling the mesh by `scale` first (uniformly: angles, normals and
-    /// `t` are kept): one mesh for boxes or rocks of many sizes. A scale outside
-    /// [`Rigid::SCALES`] (or NaN) is [`SceneError::BadScale`].
+    /// The same rotation and translation with the mesh scaled by `scale` first, replacing any
+    /// scale set before (uniformly: angles, normals and `t` are kept): one mesh for boxes or
+    /// rocks of many sizes. A scale outside [`Rigid::SCALES`] (or NaN) is
+    /// [`SceneError::BadScale`]. Rays are carried into mesh space divided by the scale: one
+    /// whose mesh-space origin or direction leaves `f32`'s range (coordinates near 2^108 at
+    /// the smallest scale) misses the instance.
     pub fn with_scale(self, scale: f32) -> Result<Self, SceneError> {
         if !Self::SCALES.contains(&scale) {
             return Err(SceneError::BadScale { scale });
@@ -107,7 +111,7 @@ impl Rigid {
             translation,
             to_world: turn * scale,
             to_mesh: turn.transpose() * (1.0 / scale),
-            linear: rotation != Quat::IDENTITY || scale != 1.0,
+            rotated_or_scaled: rotation != Quat::IDENTITY || scale != 1.0,
         }
     }
 
@@ -120,7 +124,7 @@ impl Rigid {
     /// world space and `ray_to_mesh` returns every ray bit for bit (`x - (+0) = x`, even for
     /// `x = -0`; a `-0` translation would turn a `-0` origin into `+0`, so it is excluded).
     pub fn is_identity(&self) -> bool {
-        !self.linear && self.translation.to_array().iter().all(|c| c.to_bits() == 0)
+        !self.rotated_or_scaled && self.translation.to_array().iter().all(|c| c.to_bits() == 0)
     }
 
     /// The rotation (unit length).
@@ -144,7 +148,7 @@ impl Rigid {
     pub fn ray_to_mesh(&self, ray: &Ray) -> Ray {
         let dir = flush_subnormals(ray.dir);
         let offset = ray.origin - self.translation;
-        let (origin, dir) = if self.linear {
+        let (origin, dir) = if self.rotated_or_scaled {
             (mul(&self.to_mesh, offset), mul(&self.to_mesh, dir))
         } else {
             (offset, dir)
@@ -158,7 +162,7 @@ impl Rigid {
     /// the same direction): the fast path of translated instances, such as terrain tiles.
     #[inline]
     pub(crate) fn prepared_to_mesh(&self, ray: &PreparedRay, tmax: f32) -> Option<PreparedRay> {
-        if self.linear {
+        if self.rotated_or_scaled {
             let world = Ray::with_range(ray.origin, ray.dir, ray.tmin, tmax);
             return PreparedRay::new(&self.ray_to_mesh(&world));
         }

@@ -51,11 +51,12 @@ impl Scene {
 
     /// A scene of `meshes` placed as `instances`, each mesh built with the kind the scene picks
     /// for it ([`Scene::kind_for`]), the meshes built in parallel: what a game reaches for
-    /// first. Errors as [`Scene::new`], or on a mesh whose tree cannot be built.
+    /// first. Errors as [`Scene::new`], or on a mesh whose tree cannot be built. (A mesh that
+    /// will deform needs [`AccelKind::Aabb`] for [`Scene::deform_mesh`]: build it yourself
+    /// and use [`Scene::new`].)
     pub fn from_meshes(meshes: Vec<Mesh>, instances: &[InstanceDesc]) -> Result<Self, SceneError> {
-        let meshes = crate::parallel::map(true, meshes.len(), |i| {
-            let mesh = &meshes[i];
-            Self::kind_for(mesh).build(mesh.clone(), &BuildOptions::default())
+        let meshes = crate::parallel::map_owned(true, meshes, |mesh| {
+            Self::kind_for(&mesh).build(mesh, &BuildOptions::default())
         });
         Self::new(meshes.into_iter().collect::<Result<_, _>>()?, instances)
     }
@@ -119,7 +120,9 @@ impl Scene {
     /// Removes an instance from every query, refitting its path in the top-level tree
     /// (`O(depth)`): for what is destroyed during play. It keeps its index and its global ids
     /// (the other instances keep theirs; ids are never given again), and later edits of it are
-    /// refused with [`SceneError::RemovedInstance`].
+    /// refused with [`SceneError::RemovedInstance`]. A removed instance still takes its slot
+    /// and its ids: a scene that adds and removes for a long time grows (up to
+    /// [`SceneError::TooManyTriangles`]); a new scene over the live instances compacts it.
     pub fn remove_instance(&mut self, instance: usize) -> Result<(), SceneError> {
         self.check_instance(instance)?;
         let removed = &mut self.instances[instance];

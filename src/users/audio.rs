@@ -106,7 +106,7 @@ impl Materials {
     /// The losses of `scene`'s meshes: `tables[m][t]` for triangle `t` of mesh `m` (extra
     /// entries are ignored). Errors, and builds nothing, on a missing or short table or a
     /// negative or non-finite loss. The table follows the scene's instances as they are now:
-    /// make it again after [`Scene::add_instances`] (until then, added instances lose nothing).
+    /// make it again after [`Scene::add_instances`] (until then, added instances lose 0 dB).
     pub fn new(scene: &Scene, tables: Vec<Vec<f32>>) -> Result<Self, AudioError> {
         if tables.len() != scene.meshes().len() {
             return Err(AudioError::WrongTableCount {
@@ -136,10 +136,18 @@ impl Materials {
             .map(|i| (i.mesh() as u32, i.first_id()))
             .collect();
         let first_ids = scene.instances().iter().map(|i| i.first_id()).collect();
+        // Entries past a mesh's triangles were not checked: drop them, so that an id beyond
+        // the instances known here (one added later) finds no loss rather than an unchecked one.
+        let by_mesh = (tables.into_iter().zip(scene.meshes()))
+            .map(|(mut table, tree)| {
+                table.truncate(tree.triangle_count());
+                table
+            })
+            .collect();
         Ok(Self {
             per_instance,
             first_ids,
-            by_mesh: tables,
+            by_mesh,
         })
     }
 
@@ -176,6 +184,14 @@ pub struct Occlusion {
     pub crossings: u32,
 }
 
+impl Occlusion {
+    /// An invalid segment's answer: not heard (infinite loss), nothing crossed.
+    pub const SILENT: Occlusion = Occlusion {
+        loss_db: f32::INFINITY,
+        crossings: 0,
+    };
+}
+
 /// Groups `hits` (sorted by `t` then id; `hit(x)` reads one) into crossings and adds up the
 /// first `limit`.
 fn accumulate<T>(
@@ -202,13 +218,17 @@ fn accumulate<T>(
 
 /// The occlusion of the segment from `source` to `listener` through `world` (a scene or a
 /// filtered view), counting at most `limit` crossings (`u32::MAX` for all; 1 for "the first
-/// wall"), one ray.
+/// wall"), one ray. An invalid segment (a NaN or infinite point, length zero) is not heard:
+/// infinite loss, no crossing.
 pub fn occlusion<W: RayQueries>(
     world: &W,
     materials: &Materials,
     segment: &Ray,
     limit: u32,
 ) -> Occlusion {
+    if !segment.is_valid() {
+        return Occlusion::SILENT;
+    }
     let hits = world.all_hits(segment);
     accumulate(&hits, |h| h, materials, limit)
 }
@@ -248,7 +268,11 @@ pub fn occlusion_batch<W: BatchQueries + Sync>(
         let mut start = 0;
         for (k, o) in out.iter_mut().enumerate() {
             let end = start + hits[start..].partition_point(|(i, _)| *i == k);
-            *o = accumulate(&hits[start..end], |(_, h)| h, materials, limit);
+            *o = if rays[k].is_valid() {
+                accumulate(&hits[start..end], |(_, h)| h, materials, limit)
+            } else {
+                Occlusion::SILENT
+            };
             start = end;
         }
     });

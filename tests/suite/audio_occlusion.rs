@@ -133,9 +133,18 @@ fn batched_equals_per_ray() {
         .collect();
     let materials = Materials::new(&scene, tables).unwrap();
     let mut rng = seeded(21);
-    let rays: Vec<Ray> = (0..1500)
+    let mut rays: Vec<Ray> = (0..1500)
         .map(|_| Ray::segment(in_cube(&mut rng, 7.0), in_cube(&mut rng, 7.0)))
         .collect();
+    // Invalid segments (a NaN source, length zero) are not heard, per ray and batched.
+    rays[10] = Ray::segment(Vec3::new(f32::NAN, 0.0, 0.0), Vec3::ZERO);
+    rays[700] = Ray::segment(Vec3::ONE, Vec3::ONE);
+    for &k in &[10, 700] {
+        assert_eq!(
+            occlusion(&scene, &materials, &rays[k], 3),
+            Occlusion::SILENT
+        );
+    }
     for limit in [1, 3, u32::MAX] {
         let mut out = vec![Occlusion::default(); rays.len()];
         occlusion_batch(&scene, &materials, &rays, limit, &mut out).unwrap();

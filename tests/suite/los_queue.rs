@@ -44,7 +44,7 @@ fn requests_from_many_threads_get_the_per_ray_answers() {
             handles.into_iter().map(|h| h.join().unwrap()).collect()
         });
         assert_eq!(queue.len(), 3600);
-        assert_eq!(queue.flush(&scene), 3600);
+        assert_eq!(queue.flush(&scene), Ok(3600));
         let mut indices: Vec<usize> = submitted
             .iter()
             .flatten()
@@ -76,17 +76,17 @@ fn full_unflushed_and_stale_tickets_are_errors() {
         Err(QueueError::Full { capacity: 2 })
     );
     assert_eq!(queue.occluded(a), Err(QueueError::NotFlushed));
-    assert_eq!(queue.flush(&scene), 2);
+    assert_eq!(queue.flush(&scene), Ok(2));
     assert!(queue.occluded(a).is_ok());
     let b = queue
         .submit(Vec3::new(-9.0, 0.0, 0.0), Vec3::new(9.0, 0.0, 0.0))
         .unwrap();
     assert_eq!(queue.occluded(b), Err(QueueError::NotFlushed));
-    assert_eq!(queue.flush(&scene), 1);
+    assert_eq!(queue.flush(&scene), Ok(1));
     assert_eq!(queue.occluded(a), Err(QueueError::Stale));
     assert_eq!(queue.occluded(b), Ok(true));
     // An empty frame flushes to nothing.
-    assert_eq!(queue.flush(&scene), 0);
+    assert_eq!(queue.flush(&scene), Ok(0));
 }
 
 /// A sightline that cannot be traced is refused at submit, never answered "clear"; a list
@@ -121,6 +121,42 @@ fn invalid_sightlines_are_refused() {
         })
     );
     assert!(queue.is_empty());
+    // An empty list takes nothing; a list longer than the capacity never fits.
+    let none = queue.submit_all(&[]).unwrap();
+    assert_eq!(queue.occluded(none), Err(QueueError::UnknownTicket));
+    assert_eq!(
+        queue.submit_all(&[Ray::segment(Vec3::ZERO, Vec3::X); 9]),
+        Err(QueueError::Full { capacity: 8 })
+    );
+    assert!(queue.is_empty());
+}
+
+/// Flushes called from several threads at once: one runs, the others return `FlushRunning`
+/// having closed nothing, and every request is answered by exactly one flush.
+#[test]
+fn flushes_called_at_once_answer_each_request_once() {
+    use std::sync::atomic::{AtomicUsize, Ordering};
+    let scene = world();
+    let queue = LosQueue::with_capacity(1000).unwrap();
+    let answered = AtomicUsize::new(0);
+    std::thread::scope(|s| {
+        for t in 0..3u64 {
+            let (queue, scene, answered) = (&queue, &scene, &answered);
+            s.spawn(move || {
+                let mut rng = seeded(900 + t);
+                for _ in 0..200 {
+                    let (a, b) = (in_cube(&mut rng, 6.0), in_cube(&mut rng, 6.0));
+                    queue.submit(a, b).unwrap();
+                    match queue.flush(scene) {
+                        Ok(n) => _ = answered.fetch_add(n, Ordering::Relaxed),
+                        Err(e) => assert_eq!(e, QueueError::FlushRunning),
+                    }
+                }
+            });
+        }
+    });
+    let rest = queue.flush(&scene).unwrap();
+    assert_eq!(answered.load(Ordering::Relaxed) + rest, 600);
 }
 
 #[test]
@@ -146,7 +182,7 @@ fn lists_submitted_at_once_get_consecutive_tickets() {
         Err(QueueError::Full { capacity: 10 })
     );
     assert_eq!(queue.len(), 5);
-    assert_eq!(queue.flush(&scene), 5);
+    assert_eq!(queue.flush(&scene), Ok(5));
     assert_eq!(queue.occluded(single), Ok(false));
     for (k, ray) in rays.iter().enumerate() {
         assert_eq!(queue.occluded(first.offset(k)), Ok(scene.occluded(ray)));
@@ -154,7 +190,7 @@ fn lists_submitted_at_once_get_consecutive_tickets() {
     // Past the list: not the answer of the request taken after it, but no answer at all.
     let after = queue.submit_all(&rays).unwrap();
     queue.submit(Vec3::ZERO, Vec3::X).unwrap();
-    queue.flush(&scene);
+    queue.flush(&scene).unwrap();
     for k in [4, 5, usize::MAX] {
         assert_eq!(
             queue.occluded(after.offset(k)),
@@ -181,8 +217,8 @@ fn foreign_tickets_and_bad_capacities_are_errors() {
     for _ in 0..50 {
         foreign = large.submit(segment.0, segment.1).unwrap();
     }
-    assert_eq!(small.flush(&scene), 1);
-    assert_eq!(large.flush(&scene), 51);
+    assert_eq!(small.flush(&scene), Ok(1));
+    assert_eq!(large.flush(&scene), Ok(51));
     assert_eq!(small.occluded(mine), Ok(false));
     assert_eq!(small.occluded(foreign), Err(QueueError::UnknownTicket));
     assert_eq!(large.occluded(mine), Err(QueueError::UnknownTicket));
@@ -228,7 +264,7 @@ fn concurrent_submits_and_flushes_lose_and_mix_nothing() {
             let mut flushed = 0;
             loop {
                 let finished = producing.load(Ordering::Acquire) == 0;
-                flushed += queue.flush(&scene);
+                flushed += queue.flush(&scene).unwrap();
                 // Answers live until the next frame is answered: let every answer of this
                 // frame be read first (requests of the next frame keep coming meanwhile).
                 while read.load(Ordering::Acquire) < flushed {

@@ -99,7 +99,7 @@ fn scene_queue_and_audio(mesh: &Mesh) {
         .expect("lengths match");
     let queue = LosQueue::with_capacity(segments.len()).expect("capacity");
     let first = queue.submit_all(&segments).expect("room");
-    assert_eq!(queue.flush(&scene), segments.len());
+    assert_eq!(queue.flush(&scene), Ok(segments.len()));
     let materials = Materials::uniform(&scene, 6.0).expect("one loss per triangle");
     let mut losses = vec![Occlusion::default(); segments.len()];
     occlusion_batch(&scene, &materials, &segments, u32::MAX, &mut losses).expect("lengths");

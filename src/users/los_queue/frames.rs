@@ -98,8 +98,15 @@ impl Frames {
         usize::try_from(word & !PARITY).map_or(self.capacity(), |n| n.min(self.capacity()))
     }
 
+    /// The open frame's number (for a ticket that reserves nothing).
+    pub fn open_frame(&self) -> u64 {
+        self.open_frame.load(Ordering::Acquire)
+    }
+
     /// Reserves one slot of the open frame, or `None` if it is full.
     pub fn reserve_one(&self) -> Option<Reservation> {
+        // Acquire: if this reads the word a flush swapped in, it also sees that flush's new
+        // `open_frame` (see `reservation`).
         let word = self.open.fetch_add(1, Ordering::AcqRel);
         let first = usize::try_from(word & !PARITY).ok()?;
         (first < self.capacity()).then(|| self.reservation(word, first, 1))
@@ -156,6 +163,9 @@ impl Frames {
     /// frame's number. Only one flush may call this at a time.
     pub fn close(&self, rays: &mut Vec<Ray>) -> u64 {
         let frame = self.open_frame.load(Ordering::Relaxed);
+        // The new number is stored *before* the swap that opens its frame, and the swap
+        // releases it: a submitter whose reservation reads the swapped word therefore reads
+        // this number or a later one, which `reservation` relies on. Do not reorder.
         self.open_frame.store(frame + 1, Ordering::Release);
         let next = if frame & 1 == 0 { PARITY } else { 0 };
         let count = self.taken_in(self.open.swap(next, Ordering::AcqRel));

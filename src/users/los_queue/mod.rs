@@ -11,7 +11,9 @@
 //!   returns a [`Ticket`];
 //! - [`LosQueue::flush`] (any thread) closes the open frame, opens the next one, and answers
 //!   the closed frame with one batched any-hit call on rayon. Requests submitted while it runs
-//!   go to the next frame; flushes called at once take turns;
+//!   go to the next frame. One flush runs at a time: a flush called while another runs
+//!   returns [`QueueError::FlushRunning`] at once and closes nothing (waiting could deadlock
+//!   when both run on rayon's threads);
 //! - [`LosQueue::occluded`] (any thread) reads an answer by ticket, from the moment its frame
 //!   is answered until the next flush has answered the following frame.
 //!
@@ -38,7 +40,7 @@ mod answers;
 mod frames;
 mod ticket;
 
-use std::sync::Mutex;
+use std::sync::{Mutex, TryLockError};
 
 use glam::Vec3;
 
@@ -131,10 +133,19 @@ impl LosQueue {
     /// Submits every ray of `rays` at once (a system's whole list for the frame): one atomic
     /// step for all of them instead of one each, so submitters contend less. Ray `k` gets
     /// `first.offset(k)` (see [`Ticket::offset`]). All or nothing: if one is invalid or they do
-    /// not all fit, none is taken and the queue is unchanged.
+    /// not all fit, none is taken and the queue is unchanged (a list longer than the capacity
+    /// never fits). An empty list takes nothing; its ticket names no request.
     pub fn submit_all(&self, rays: &[Ray]) -> Result<Ticket, QueueError> {
         for (index, ray) in rays.iter().enumerate() {
             check(index, ray)?;
+        }
+        if rays.is_empty() {
+            let empty = Reservation {
+                frame: self.frames.open_frame(),
+                first: 0,
+                count: 0,
+            };
+            return Ok(self.ticket(&empty));
         }
         let reservation = self.frames.reserve(rays.len()).ok_or(QueueError::Full {
             capacity: self.capacity(),
@@ -145,26 +156,29 @@ impl LosQueue {
 
     /// Closes the open frame (requests submitted from now on go to the next one) and answers
     /// it with one batched any-hit call on `world` (a tree, a scene, a filtered scene view).
-    /// Returns how many requests were answered.
-    pub fn flush<A: BatchQueries>(&self, world: &A) -> usize {
-        let mut arrays = self
-            .flush
-            .lock()
-            .unwrap_or_else(|poisoned| poisoned.into_inner());
+    /// Returns how many requests were answered, or [`QueueError::FlushRunning`] (nothing
+    /// closed) if another flush is running.
+    pub fn flush<A: BatchQueries>(&self, world: &A) -> Result<usize, QueueError> {
+        let mut arrays = match self.flush.try_lock() {
+            Ok(arrays) => arrays,
+            Err(TryLockError::Poisoned(poisoned)) => poisoned.into_inner(),
+            Err(TryLockError::WouldBlock) => return Err(QueueError::FlushRunning),
+        };
         let FlushArrays { rays, occluded } = &mut *arrays;
         rays.clear();
         let frame = self.frames.close(rays);
         occluded.clear();
-        occluded.resize(rays.len(), false);
+        // Blocked unless answered clear: an answer the call does not write fails closed, and
+        // so does the whole frame if the call refused it (it cannot: the lengths match).
+        occluded.resize(rays.len(), true);
         if world
             .occluded_batch_with(rays, occluded, &self.options)
             .is_err()
         {
-            // The lengths match, so this cannot happen; if it did, no sightline reads clear.
             occluded.fill(true);
         }
         self.answers.publish(frame, occluded);
-        rays.len()
+        Ok(rays.len())
     }
 
     /// True if the request's segment is blocked, as answered by the flush of its frame.

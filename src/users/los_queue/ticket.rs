@@ -23,7 +23,8 @@ impl Ticket {
     }
 
     /// The frame the request belongs to: 0 for the requests answered by the queue's first
-    /// flush, then one more per flush.
+    /// flush, then one more per flush (for a ticket that names no request, a frame that was
+    /// open at about the time it was taken).
     pub fn frame(&self) -> u64 {
         self.frame
     }
@@ -61,6 +62,8 @@ pub enum QueueError {
     },
     /// The ticket's frame has not been answered yet.
     NotFlushed,
+    /// Another flush is running; this one closed nothing (see [`super::LosQueue::flush`]).
+    FlushRunning,
     /// The ticket was not issued by this queue (another queue's ticket, or an
     /// [`Ticket::offset`] past the list it was taken for).
     UnknownTicket,
@@ -86,7 +89,10 @@ impl std::fmt::Display for QueueError {
                 write!(f, "sightline {index} refused: {error}")
             }
             QueueError::NotFlushed => f.write_str("the ticket's frame has not been answered yet"),
-            QueueError::UnknownTicket => f.write_str("the ticket was not issued by this queue"),
+            QueueError::UnknownTicket => f.write_str(
+                "the ticket names no request of this queue (another queue's, or past its list)",
+            ),
+            QueueError::FlushRunning => f.write_str("another flush of this queue is running"),
             QueueError::BadCapacity { requested } => write!(
                 f,
                 "a line-of-sight queue holds 1 to {} requests, not {requested}",
