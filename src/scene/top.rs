@@ -1,6 +1,8 @@
 //! The top-level tree: a binary tree over the instances' world boxes, built with a binned SAH
 //! over box centres and kept current when instances move by a refit (boxes recomputed
-//! bottom-up, shape kept) or a rebuild.
+//! bottom-up, shape kept) or a rebuild. An instance added later is inserted: down the child
+//! whose box grows least, then the leaf reached splits in two (as dynamic AABB trees do), so
+//! a spawn costs a path, not a rebuild; many insertions leave a worse tree than a rebuild.
 //!
 //! Nodes are stored parents before children, the two children of a node side by side, so a
 //! full refit is one pass over the nodes in reverse. Each node also keeps the union of its
@@ -99,6 +101,66 @@ impl TopTree {
             axis: 0,
         });
         self.parent.push(parent);
+    }
+
+    /// Adds instance `instance` (the next one: `boxes` and `masks` already hold it) and refits
+    /// its path to the root (see the module docs).
+    pub fn insert(&mut self, instance: usize, boxes: &[Aabb], masks: &[u32]) {
+        let slot = self.order.len() as u32;
+        self.order.push(instance as u32);
+        self.leaf_of.resize(self.leaf_of.len().max(instance + 1), 0);
+        if self.nodes.is_empty() {
+            self.push(0);
+            self.nodes[0].first = slot;
+            self.nodes[0].count = 1;
+            self.refit_node(0, boxes, masks);
+            return;
+        }
+        let added = boxes[instance];
+        let growth =
+            |node: &TopNode| node.bounds.union(added).half_area() - node.bounds.half_area();
+        let mut index = 0;
+        while !self.nodes[index].is_leaf() {
+            let first = self.nodes[index].first as usize;
+            let second_grows_less = growth(&self.nodes[first + 1]) < growth(&self.nodes[first]);
+            index = first + usize::from(second_grows_less);
+        }
+        // The leaf becomes an inner node over two new leaves: its instances and the new one,
+        // the lower centre first on the axis where the centres differ most.
+        let old = self.nodes[index];
+        let new = TopNode {
+            bounds: added,
+            mask: masks[instance],
+            first: slot,
+            count: 1,
+            axis: 0,
+        };
+        let gap = centre(&added) - centre(&old.bounds);
+        let axis = if gap.x.abs() >= gap.y.abs().max(gap.z.abs()) {
+            0
+        } else if gap.y.abs() >= gap.z.abs() {
+            1
+        } else {
+            2
+        };
+        let pair = if gap[axis] < 0.0 {
+            [new, old]
+        } else {
+            [old, new]
+        };
+        let first = self.nodes.len() as u32;
+        for (k, leaf) in pair.into_iter().enumerate() {
+            self.push(index as u32);
+            self.nodes[first as usize + k] = leaf;
+            for &i in &self.order[leaf.first as usize..(leaf.first + leaf.count) as usize] {
+                self.leaf_of[i as usize] = first + k as u32;
+            }
+        }
+        let node = &mut self.nodes[index];
+        node.first = first;
+        node.count = 0;
+        node.axis = axis as u8;
+        self.refit_instance(instance, boxes, masks);
     }
 
     /// Recomputes every box and mask bottom-up from the instances' current ones.

@@ -75,10 +75,11 @@ impl Scene {
         }
     }
 
-    /// Adds instances after the last one and rebuilds the top-level tree (the meshes' trees
-    /// are untouched): for what spawns during play. Returns their indices. Their triangles
-    /// take global ids after every id given so far. Errors as [`Scene::new`]; on error
-    /// nothing changes.
+    /// Adds instances after the last one: for what spawns during play (the meshes' trees are
+    /// untouched). A few are inserted into the top-level tree, each down one path; more than
+    /// an eighth of the scene at once rebuilds it. Returns their indices. Their triangles take
+    /// global ids after every id given so far. Errors as [`Scene::new`]; on error nothing
+    /// changes. After many insertions, [`Scene::rebuild_top`] restores the top level's speed.
     pub fn add_instances(
         &mut self,
         instances: &[InstanceDesc],
@@ -113,8 +114,15 @@ impl Scene {
             self.masks.push(instance.mask);
             self.instances.push(instance);
         }
-        self.rebuild_top();
-        Ok(start..self.instances.len())
+        let added = start..self.instances.len();
+        if added.len() * 8 > self.instances.len() {
+            self.rebuild_top();
+        } else {
+            for instance in added.clone() {
+                self.top.insert(instance, &self.boxes, &self.masks);
+            }
+        }
+        Ok(added)
     }
 
     /// Removes an instance from every query, refitting its path in the top-level tree

@@ -322,44 +322,43 @@ fn a_refit_that_collapses_a_triangle_is_refused() {
     assert_eq!(scene.cast_ray(&ray), before);
 }
 
-/// Instances added and removed during play: the scene answers as brute force over its live
-/// instances, and as a scene built from scratch over them (same instance, triangle and hit,
-/// per ray and batched); removed instances keep their index, refuse edits, and a refused
-/// addition changes nothing.
+/// Instances added (a few: inserted into the top level; many: rebuilt) and removed during
+/// play: the scene answers as brute force over its live instances, and as a scene built from
+/// scratch over them (same instance, triangle and hit, per ray and batched); removed
+/// instances keep their index, refuse edits, and a refused addition changes nothing.
 #[test]
 fn added_and_removed_instances_answer_as_a_scene_built_from_scratch() {
     let meshes = vec![icosphere(1), icosphere(2)];
     let place = |i: usize| {
-        let at = Vec3::new((i % 4) as f32 * 2.2 - 3.3, (i / 4) as f32 * 2.2 - 3.3, 0.0);
+        let at = Vec3::new((i % 6) as f32 * 2.2 - 5.5, (i / 6) as f32 * 2.2 - 5.5, 0.0);
         InstanceDesc::new(
             i % 2,
             Rigid::new(Quat::from_rotation_z(i as f32), at).unwrap(),
         )
         .with_user(i as u64)
     };
-    let mut scene = build_scene(
-        &meshes,
-        &[AccelKind::Bvh8, AccelKind::Zbt],
-        &[place(0), place(1)],
-    );
+    let first: Vec<InstanceDesc> = (0..2).map(place).collect();
+    let mut scene = build_scene(&meshes, &[AccelKind::Bvh8, AccelKind::Zbt], &first);
+    // Many at once (rebuilt), then a few at a time (inserted).
+    let many: Vec<InstanceDesc> = (2..30).map(place).collect();
+    assert_eq!(scene.add_instances(&many), Ok(2..30));
     assert_eq!(
-        scene.add_instances(&[place(2), place(3), place(4)]),
-        Ok(2..5)
+        scene.add_instances(&[place(30), place(31), place(32)]),
+        Ok(30..33)
     );
     scene.remove_instance(1).unwrap();
-    assert_eq!(scene.add_instances(&[place(5), place(6)]), Ok(5..7));
-    scene.remove_instance(5).unwrap();
-    scene
-        .set_transform(
-            6,
-            Rigid::from_translation(Vec3::new(0.0, 3.0, 1.0)).unwrap(),
-        )
-        .unwrap();
+    scene.remove_instance(31).unwrap();
+    for i in 33..40 {
+        assert_eq!(scene.add_instances(&[place(i)]), Ok(i..i + 1));
+    }
+    scene.remove_instance(35).unwrap();
+    let moved = Rigid::from_translation(Vec3::new(0.0, 3.0, 1.0)).unwrap();
+    scene.set_transform(36, moved).unwrap();
 
     for edit in [
         scene.remove_instance(1),
-        scene.set_mask(5, 1),
-        scene.set_user(5, 1),
+        scene.set_mask(35, 1),
+        scene.set_user(31, 1),
         scene.set_transform(1, Rigid::IDENTITY),
     ] {
         assert!(
@@ -369,19 +368,19 @@ fn added_and_removed_instances_answer_as_a_scene_built_from_scratch() {
     }
     let before = scene.instances().len();
     assert!(matches!(
-        scene.add_instances(&[place(7), InstanceDesc::new(9, Rigid::IDENTITY)]),
+        scene.add_instances(&[place(40), InstanceDesc::new(9, Rigid::IDENTITY)]),
         Err(SceneError::NoSuchMesh { mesh: 9, .. })
     ));
     assert_eq!(scene.instances().len(), before);
-    assert!(scene.instances()[1].is_removed() && scene.instances()[5].is_removed());
+    assert!(scene.instances()[1].is_removed() && scene.instances()[35].is_removed());
 
     // Rays from all around aimed near the instances, removed ones included.
     let mut rng = seeded(21);
-    let rays: Vec<Ray> = (0..600)
+    let rays: Vec<Ray> = (0..1200)
         .map(|k| {
             let from = crate::common::rng::in_cube(&mut rng, 9.0);
             let near =
-                place(k % 7).transform.translation() + crate::common::rng::in_cube(&mut rng, 0.8);
+                place(k % 40).transform.translation() + crate::common::rng::in_cube(&mut rng, 0.8);
             Ray::new(from, near - from)
         })
         .collect();
@@ -410,7 +409,7 @@ fn added_and_removed_instances_answer_as_a_scene_built_from_scratch() {
         assert_eq!(*got, scene.cast_ray_resolved(ray));
         hits += usize::from(got.is_some());
     }
-    assert!(hits > 300, "{hits} hits");
+    assert!(hits > 600, "{hits} hits");
 }
 
 /// `Scene::from_meshes` builds small meshes as 4-wide trees and the others as the library's
