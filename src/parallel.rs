@@ -58,27 +58,17 @@ where
     }
 }
 
-/// `(0..count).map(item)` collected in order, computed on rayon's pool when `parallel` and
-/// threads are available.
-pub(crate) fn map<T: Send>(
+/// `items.into_iter().map(item)` collected in order (items: a range of indices, or owned
+/// values), computed on rayon's pool when `parallel` and threads are available.
+pub(crate) fn map<I, U>(
     parallel: bool,
-    count: usize,
-    item: impl Fn(usize) -> T + Sync + Send,
-) -> Vec<T> {
-    use rayon::prelude::*;
-    if enabled(parallel) {
-        (0..count).into_par_iter().map(item).collect()
-    } else {
-        (0..count).map(item).collect()
-    }
-}
-
-/// `items.into_iter().map(item)` collected in order, [`map`] for owned items.
-pub(crate) fn map_owned<T: Send, U: Send>(
-    parallel: bool,
-    items: Vec<T>,
-    item: impl Fn(T) -> U + Sync + Send,
-) -> Vec<U> {
+    items: I,
+    item: impl Fn(<I as IntoIterator>::Item) -> U + Sync + Send,
+) -> Vec<U>
+where
+    I: IntoIterator + rayon::iter::IntoParallelIterator<Item = <I as IntoIterator>::Item>,
+    U: Send,
+{
     use rayon::prelude::*;
     if enabled(parallel) {
         items.into_par_iter().map(item).collect()

@@ -257,7 +257,7 @@ pub(crate) fn prims_of(mesh: &Mesh, parallel: bool) -> Vec<Prim> {
     // A degenerate triangle is marked by an id past the mesh, then dropped in one pass.
     let end = mesh.triangle_count() as u32;
     let parallel = parallel && end as usize > PARALLEL_THRESHOLD;
-    let mut prims = parallel::map(parallel, end as usize, |id| {
+    let mut prims = parallel::map(parallel, 0..end as usize, |id| {
         let id = id as u32;
         let prim = Prim::of(mesh, id);
         Prim {

@@ -62,7 +62,7 @@ fn ray_by_ray(rays: &[Ray], options: &BatchOptions) -> bool {
     rays.len() < options.min_batch || options.kernel != Kernel::Watertight
 }
 
-fn check_lengths(rays: usize, outputs: usize) -> Result<(), BatchError> {
+pub(crate) fn check_lengths(rays: usize, outputs: usize) -> Result<(), BatchError> {
     if rays == outputs {
         Ok(())
     } else {

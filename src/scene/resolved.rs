@@ -8,6 +8,7 @@ use crate::batch::BatchOptions;
 use crate::batch::chunks::for_each_chunk;
 use crate::geom::Ray;
 use crate::hit::Hit;
+use crate::query::batched::check_lengths;
 use crate::query::{BatchError, BatchQueries, RayQueries};
 use crate::scene::filter::SceneView;
 use crate::scene::instance::ALL_LAYERS;
@@ -62,24 +63,14 @@ impl Scene {
     }
 
     /// The closest hit of every ray, resolved (`out[i]` for `rays[i]`): the same answers as
-    /// [`Scene::cast_ray_resolved`] on each ray.
+    /// [`Scene::cast_ray_resolved`] on each ray. With options or layers:
+    /// [`SceneView::cast_ray_batch_resolved_with`] on [`Scene::filtered`].
     pub fn cast_ray_batch_resolved(
         &self,
         rays: &[Ray],
         out: &mut [Option<SceneHit>],
     ) -> Result<(), BatchError> {
         self.filtered(ALL_LAYERS).cast_ray_batch_resolved(rays, out)
-    }
-
-    /// [`Scene::cast_ray_batch_resolved`] with options.
-    pub fn cast_ray_batch_resolved_with(
-        &self,
-        rays: &[Ray],
-        out: &mut [Option<SceneHit>],
-        options: &BatchOptions,
-    ) -> Result<(), BatchError> {
-        self.filtered(ALL_LAYERS)
-            .cast_ray_batch_resolved_with(rays, out, options)
     }
 }
 
@@ -107,12 +98,7 @@ impl SceneView<'_> {
         out: &mut [Option<SceneHit>],
         options: &BatchOptions,
     ) -> Result<(), BatchError> {
-        if out.len() != rays.len() {
-            return Err(BatchError::LengthMismatch {
-                rays: rays.len(),
-                outputs: out.len(),
-            });
-        }
+        check_lengths(rays.len(), out.len())?;
         let mut hits = vec![None; rays.len()];
         self.cast_ray_batch_with(rays, &mut hits, options)?;
         let hits = &hits;

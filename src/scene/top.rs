@@ -108,7 +108,8 @@ impl TopTree {
     pub fn insert(&mut self, instance: usize, boxes: &[Aabb], masks: &[u32]) {
         let slot = self.order.len() as u32;
         self.order.push(instance as u32);
-        self.leaf_of.resize(self.leaf_of.len().max(instance + 1), 0);
+        debug_assert_eq!(self.leaf_of.len(), instance, "instances are added in order");
+        self.leaf_of.push(0);
         if self.nodes.is_empty() {
             self.push(0);
             self.nodes[0].first = slot;
@@ -136,13 +137,7 @@ impl TopTree {
             axis: 0,
         };
         let gap = centre(&added) - centre(&old.bounds);
-        let axis = if gap.x.abs() >= gap.y.abs().max(gap.z.abs()) {
-            0
-        } else if gap.y.abs() >= gap.z.abs() {
-            1
-        } else {
-            2
-        };
+        let axis = gap.abs().max_position();
         let pair = if gap[axis] < 0.0 {
             [new, old]
         } else {

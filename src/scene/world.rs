@@ -55,7 +55,7 @@ impl Scene {
     /// will deform needs [`AccelKind::Aabb`] for [`Scene::deform_mesh`]: build it yourself
     /// and use [`Scene::new`].)
     pub fn from_meshes(meshes: Vec<Mesh>, instances: &[InstanceDesc]) -> Result<Self, SceneError> {
-        let meshes = crate::parallel::map_owned(true, meshes, |mesh| {
+        let meshes = crate::parallel::map(true, meshes, |mesh| {
             Self::kind_for(&mesh).build(mesh, &BuildOptions::default())
         });
         Self::new(meshes.into_iter().collect::<Result<_, _>>()?, instances)

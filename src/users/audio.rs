@@ -25,6 +25,7 @@ use crate::batch::BatchOptions;
 use crate::batch::chunks::for_each_chunk;
 use crate::geom::Ray;
 use crate::hit::Hit;
+use crate::query::batched::check_lengths;
 use crate::query::{BatchError, BatchQueries, RayQueries};
 use crate::scene::Scene;
 
@@ -243,12 +244,7 @@ pub fn occlusion_batch<W: BatchQueries + Sync>(
     limit: u32,
     out: &mut [Occlusion],
 ) -> Result<(), BatchError> {
-    if segments.len() != out.len() {
-        return Err(BatchError::LengthMismatch {
-            rays: segments.len(),
-            outputs: out.len(),
-        });
-    }
+    check_lengths(segments.len(), out.len())?;
     let options = BatchOptions::default()
         .with_parallel(false)
         .with_min_batch(0);

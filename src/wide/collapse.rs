@@ -65,7 +65,7 @@ pub(crate) fn collapse<N: NodeKind>(
     let mut wide_of = vec![0u32; built.nodes.len()];
     number(built, &plan, 0, &mut binary_of, &mut wide_of);
     let parallel = parallel && built.nodes.len() > PARALLEL_THRESHOLD;
-    let nodes = crate::parallel::map(parallel, binary_of.len(), |wide| {
+    let nodes = crate::parallel::map(parallel, 0..binary_of.len(), |wide| {
         let children = plan.children(built, binary_of[wide]);
         let mut slots = [(Aabb::EMPTY, 0u32); MAX_WIDTH];
         for (slot, &child) in slots.iter_mut().zip(children.as_slice()) {

@@ -98,11 +98,6 @@ impl Frames {
         usize::try_from(word & !PARITY).map_or(self.capacity(), |n| n.min(self.capacity()))
     }
 
-    /// The open frame's number (for a ticket that reserves nothing).
-    pub fn open_frame(&self) -> u64 {
-        self.open_frame.load(Ordering::Acquire)
-    }
-
     /// Reserves one slot of the open frame, or `None` if it is full.
     pub fn reserve_one(&self) -> Option<Reservation> {
         // Acquire: if this reads the word a flush swapped in, it also sees that flush's new
@@ -112,8 +107,18 @@ impl Frames {
         (first < self.capacity()).then(|| self.reservation(word, first, 1))
     }
 
-    /// Reserves `count` consecutive slots of the open frame, all or none.
+    /// Reserves `count` consecutive slots of the open frame, all or none. Nothing always fits:
+    /// it touches no slot, and its frame is the open frame's number as read (no flush waits
+    /// for it, so that frame may already be closed; a ticket for nothing names no request).
     pub fn reserve(&self, count: usize) -> Option<Reservation> {
+        if count == 0 {
+            let frame = self.open_frame.load(Ordering::Acquire);
+            return Some(Reservation {
+                frame,
+                first: 0,
+                count,
+            });
+        }
         let capacity = self.capacity();
         let fits = |word: u64| {
             let end = usize::try_from(word & !PARITY).ok()?.checked_add(count)?;
@@ -129,8 +134,7 @@ impl Frames {
     /// The frame a reservation made on `word` belongs to. The open frame's number is read
     /// after the reservation: either that frame or, if a flush has closed it since, the next
     /// one, never later (that flush waits for this reservation's rays); the parity tells
-    /// which. A reservation of nothing is waited for by no flush: its frame may be off, but
-    /// its ticket names no request.
+    /// which.
     fn reservation(&self, word: u64, first: usize, count: usize) -> Reservation {
         let parity = u64::from(word & PARITY != 0);
         let open = self.open_frame.load(Ordering::Acquire);

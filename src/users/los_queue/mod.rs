@@ -139,14 +139,6 @@ impl LosQueue {
         for (index, ray) in rays.iter().enumerate() {
             check(index, ray)?;
         }
-        if rays.is_empty() {
-            let empty = Reservation {
-                frame: self.frames.open_frame(),
-                first: 0,
-                count: 0,
-            };
-            return Ok(self.ticket(&empty));
-        }
         let reservation = self.frames.reserve(rays.len()).ok_or(QueueError::Full {
             capacity: self.capacity(),
         })?;
