@@ -232,6 +232,10 @@ pub struct RayStream<'a> {
     pub(crate) in_cull_bounds: bool,
     /// The stream is a dense octant of its chunk ([`RayStream::is_dense_octant`]).
     pub(crate) dense_octant: bool,
+    /// By ray id, the ray's position in its chunk, and the chunk's first ray in the batch
+    /// ([`RayStream::batch_index`]); empty for a structure's own sub-streams.
+    positions: &'a [u32],
+    offset: usize,
 }
 
 impl<'a> RayStream<'a> {
@@ -258,7 +262,27 @@ impl<'a> RayStream<'a> {
             options,
             in_cull_bounds: false,
             dense_octant: false,
+            positions: &[],
+            offset: 0,
         }
+    }
+
+    /// The same stream, whose ray ids are slots of a batch's chunk: `positions[id]` is the
+    /// ray's position in the chunk, which starts at ray `offset` of the batch.
+    pub(crate) fn in_batch(self, positions: &'a [u32], offset: usize) -> Self {
+        Self {
+            positions,
+            offset,
+            ..self
+        }
+    }
+
+    /// The index of ray `i` in the rays the caller passed to the batched query, for per-ray
+    /// data the caller passed beside them; `None` in a structure's own sub-streams.
+    #[inline(always)]
+    pub(crate) fn batch_index(&self, i: usize) -> Option<usize> {
+        let position = self.positions.get(self.id(i) as usize)?;
+        Some(self.offset + *position as usize)
     }
 
     /// The same stream, marked as holding only rays that touch the structure's
@@ -397,6 +421,17 @@ impl<'a> RayStream<'a> {
         }
     }
 
+    /// Sets the range start of ray `i` (only ever raised, before a walk: see
+    /// `crate::scene::RayFilter::include_ends`).
+    #[inline(always)]
+    pub(crate) fn set_tmin(&mut self, i: usize, tmin: f32) {
+        let lane = self.lane(i);
+        match &mut self.storage {
+            Storage::Lanes(lanes) => lanes.set_tmin(lane, tmin),
+            Storage::Records(records) => records.rays[lane].tmin = tmin,
+        }
+    }
+
     /// Sets the range end of ray `i`.
     #[inline(always)]
     pub fn set_tmax(&mut self, i: usize, tmax: f32) {
@@ -435,6 +470,8 @@ impl<'a> RayStream<'a> {
             options: self.options,
             in_cull_bounds: self.in_cull_bounds,
             dense_octant: self.dense_octant,
+            positions: self.positions,
+            offset: self.offset,
         }
     }
 

@@ -79,7 +79,7 @@ pub use kdtree::KdTree;
 pub use mesh::{Mesh, MeshError};
 pub use query::brute_force;
 pub use query::{BatchError, BatchQueries, RayQueries};
-pub use scene::{InstanceDesc, Rigid, Scene, SceneError, SceneHit};
+pub use scene::{InstanceDesc, RayFilter, Rigid, Scene, SceneError, SceneHit};
 pub use wide::{QuantizedWideTree, QuantizedWideTree8, WideTree, WideTree8};
 pub use zbt::{HybridOptions, HybridTree, ZbtOptions, ZeroByteTree};
 

@@ -181,6 +181,11 @@ impl Lanes {
     pub fn set_tmax(&mut self, lane: usize, tmax: f32) {
         self.cols[TMAX][lane] = tmax.to_bits();
     }
+
+    #[inline(always)]
+    pub fn set_tmin(&mut self, lane: usize, tmin: f32) {
+        self.cols[TMIN][lane] = tmin.to_bits();
+    }
 }
 
 /// Eight lanes of the columns, copied next to each other ([`Lanes::block`]): the rays of a

@@ -41,6 +41,14 @@ pub enum BatchError {
         /// Length of the output slice.
         outputs: usize,
     },
+    /// A batch of per-ray filters ([`crate::scene::FilteredBatch`]) has a length other than
+    /// the number of rays.
+    FilterCount {
+        /// Number of rays.
+        rays: usize,
+        /// Number of filters.
+        filters: usize,
+    },
 }
 
 impl std::fmt::Display for BatchError {
@@ -50,6 +58,9 @@ impl std::fmt::Display for BatchError {
                 f,
                 "output slice has {outputs} entries for {rays} rays; they must be equal"
             ),
+            BatchError::FilterCount { rays, filters } => {
+                write!(f, "{filters} filters for {rays} rays; each ray needs one")
+            }
         }
     }
 }
@@ -58,7 +69,7 @@ impl std::error::Error for BatchError {}
 
 /// Whether a batch goes through the single-ray path: too small to pay for a stream, or with
 /// a kernel the stream engines are not compiled for (see the module docs).
-fn ray_by_ray(rays: &[Ray], options: &BatchOptions) -> bool {
+pub(crate) fn ray_by_ray(rays: &[Ray], options: &BatchOptions) -> bool {
     rays.len() < options.min_batch || options.kernel != Kernel::Watertight
 }
 
@@ -80,6 +91,10 @@ struct Chunk<'w, S> {
     partitioner: Partitioner,
     /// The preparation left out the rays that miss the structure's cull box.
     culled: bool,
+    /// By slot (the streams' ray ids), the ray's position in the chunk, and the chunk's first
+    /// ray in the batch: what [`RayStream::batch_index`] answers.
+    positions: &'w [u32],
+    offset: usize,
 }
 
 impl<S> Chunk<'_, S> {
@@ -91,7 +106,8 @@ impl<S> Chunk<'_, S> {
             let storage = self.storage.reborrow();
             let mut stream = RayStream::new(storage, start, end, octant_mask, partitioner, options)
                 .culled(self.culled)
-                .dense_octant(dense);
+                .dense_octant(dense)
+                .in_batch(self.positions, self.offset);
             // Rays of a group have different dominant axes, so the watertight kernel dispatches
             // per ray (`Watertight` calls the same `WatertightAxis` function as the single-ray
             // path). Other kernels never get here (`ray_by_ray`).
@@ -125,7 +141,7 @@ enum Query {
 /// Prepares `rays` in this thread's workspace and runs `f` on them and on the workspace's
 /// answer arrays.
 fn with_chunk<A: Accel, R>(
-    (rays, cull): (&[Ray], Option<Aabb>),
+    (rays, offset, cull): (&[Ray], usize, Option<Aabb>),
     (options, query): (&BatchOptions, Query),
     partitioner: Partitioner,
     f: impl FnOnce(Chunk<'_, A::Scratch>, Answers<'_>) -> R,
@@ -163,6 +179,7 @@ fn with_chunk<A: Accel, R>(
                 Storage::Records(records),
             ),
         };
+        let slots = &*slots;
         let answers = Answers {
             slots,
             best,
@@ -176,6 +193,8 @@ fn with_chunk<A: Accel, R>(
             options,
             partitioner,
             culled: cull.is_some(),
+            positions: &slots.positions,
+            offset,
         };
         f(chunk, answers)
     })
@@ -195,7 +214,7 @@ fn for_each_prepared_chunk<A: Accel, T: Send>(
     let chunking = (options, accel.max_chunk(rays));
     for_each_chunk(rays, out, chunking, |offset, rays, out| {
         with_chunk::<A, _>(
-            (rays, cull),
+            (rays, offset, cull),
             (options, query),
             partitioner,
             |chunk, answers| f(offset, out, chunk, answers),

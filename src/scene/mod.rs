@@ -7,7 +7,8 @@
 //! It answers every query of [`crate::RayQueries`] and [`crate::BatchQueries`], per ray and
 //! batched, in *global* triangle ids; [`Scene::cast_ray_resolved`] and its batch form answer
 //! with what a game reads (instance, triangle, world position and normal).
-//! [`Scene::filtered`] restricts a query to some layers.
+//! [`Scene::filtered`] applies a [`RayFilter`] (layers, an instance to pass through, back
+//! faces, end points) to a query, [`Scene::filtered_batch`] one filter per ray of a batch.
 //!
 //! **What a scene answer is.** For each instance, the ray carried into its mesh space by
 //! [`Rigid::ray_to_mesh`] (documented operations, see [`Rigid`]) is traced exactly against the
@@ -72,7 +73,7 @@ mod trace;
 mod world;
 
 pub use error::SceneError;
-pub use filter::SceneView;
+pub use filter::{FilteredBatch, RayFilter, SceneView};
 pub use instance::{ALL_LAYERS, Instance, InstanceDesc};
 pub use resolved::SceneHit;
 pub use rigid::{RIGID_TOLERANCE, Rigid};

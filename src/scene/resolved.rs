@@ -10,8 +10,7 @@ use crate::geom::Ray;
 use crate::hit::Hit;
 use crate::query::batched::check_lengths;
 use crate::query::{BatchError, BatchQueries, RayQueries};
-use crate::scene::filter::SceneView;
-use crate::scene::instance::ALL_LAYERS;
+use crate::scene::filter::{FilteredBatch, RayFilter, SceneView};
 use crate::scene::world::Scene;
 
 /// A scene hit resolved to its instance: what a game reads.
@@ -59,29 +58,31 @@ impl Scene {
 
     /// The closest hit of `ray`, resolved ([`Scene::resolve`]).
     pub fn cast_ray_resolved(&self, ray: &Ray) -> Option<SceneHit> {
-        self.filtered(ALL_LAYERS).cast_ray_resolved(ray)
+        self.filtered(RayFilter::ALL).cast_ray_resolved(ray)
     }
 
     /// The closest hit of every ray, resolved (`out[i]` for `rays[i]`): the same answers as
-    /// [`Scene::cast_ray_resolved`] on each ray. With options or layers:
-    /// [`SceneView::cast_ray_batch_resolved_with`] on [`Scene::filtered`].
+    /// [`Scene::cast_ray_resolved`] on each ray. With options or a filter:
+    /// [`SceneView::cast_ray_batch_resolved_with`] on [`Scene::filtered`]; a filter per ray:
+    /// [`Scene::filtered_batch`].
     pub fn cast_ray_batch_resolved(
         &self,
         rays: &[Ray],
         out: &mut [Option<SceneHit>],
     ) -> Result<(), BatchError> {
-        self.filtered(ALL_LAYERS).cast_ray_batch_resolved(rays, out)
+        self.filtered(RayFilter::ALL)
+            .cast_ray_batch_resolved(rays, out)
     }
 }
 
 impl SceneView<'_> {
-    /// The closest hit of `ray` on the view's layers, resolved ([`Scene::resolve`]).
+    /// The closest hit of `ray` through the view's filter, resolved ([`Scene::resolve`]).
     pub fn cast_ray_resolved(&self, ray: &Ray) -> Option<SceneHit> {
         self.cast_ray(ray)
             .and_then(|hit| self.scene.resolve(ray, hit))
     }
 
-    /// [`Scene::cast_ray_batch_resolved`] on the view's layers.
+    /// [`Scene::cast_ray_batch_resolved`] through the view's filter.
     pub fn cast_ray_batch_resolved(
         &self,
         rays: &[Ray],
@@ -90,8 +91,8 @@ impl SceneView<'_> {
         self.cast_ray_batch_resolved_with(rays, out, &BatchOptions::default())
     }
 
-    /// [`Scene::cast_ray_batch_resolved`] on the view's layers, with options: one batched
-    /// query, then the hits resolved in chunks over the threads.
+    /// [`Scene::cast_ray_batch_resolved`] through the view's filter, with options: one
+    /// batched query, then the hits resolved in chunks over the threads.
     pub fn cast_ray_batch_resolved_with(
         &self,
         rays: &[Ray],
@@ -101,13 +102,50 @@ impl SceneView<'_> {
         check_lengths(rays.len(), out.len())?;
         let mut hits = vec![None; rays.len()];
         self.cast_ray_batch_with(rays, &mut hits, options)?;
-        let hits = &hits;
+        self.scene.resolve_batch(rays, &hits, out, options);
+        Ok(())
+    }
+}
+
+impl FilteredBatch<'_> {
+    /// [`Scene::cast_ray_batch_resolved`], each ray through its filter.
+    pub fn cast_ray_batch_resolved(
+        &self,
+        rays: &[Ray],
+        out: &mut [Option<SceneHit>],
+    ) -> Result<(), BatchError> {
+        self.cast_ray_batch_resolved_with(rays, out, &BatchOptions::default())
+    }
+
+    /// [`FilteredBatch::cast_ray_batch_resolved`] with options.
+    pub fn cast_ray_batch_resolved_with(
+        &self,
+        rays: &[Ray],
+        out: &mut [Option<SceneHit>],
+        options: &BatchOptions,
+    ) -> Result<(), BatchError> {
+        check_lengths(rays.len(), out.len())?;
+        let mut hits = vec![None; rays.len()];
+        self.cast_ray_batch_with(rays, &mut hits, options)?;
+        self.scene.resolve_batch(rays, &hits, out, options);
+        Ok(())
+    }
+}
+
+impl Scene {
+    /// `out[i]` = `hits[i]` (on `rays[i]`) resolved, in chunks over the threads.
+    fn resolve_batch(
+        &self,
+        rays: &[Ray],
+        hits: &[Option<Hit>],
+        out: &mut [Option<SceneHit>],
+        options: &BatchOptions,
+    ) {
         for_each_chunk(rays, out, (options, rays.len()), |offset, rays, out| {
             for (k, (ray, out)) in rays.iter().zip(out).enumerate() {
-                *out = hits[offset + k].and_then(|hit| self.scene.resolve(ray, hit));
+                *out = hits[offset + k].and_then(|hit| self.resolve(ray, hit));
             }
         });
-        Ok(())
     }
 }
 

@@ -16,16 +16,18 @@
 
 use std::marker::PhantomData;
 
+use glam::Vec3;
+
 use crate::accel::{Accel, Footprint, RayStream, Storage, StreamLayout};
 use crate::batch::BatchOptions;
 use crate::batch::lanes::Lanes;
 use crate::catalog::AnyAccel;
 use crate::geom::{Kernel, Ray};
 use crate::geom::{PreparedRay, TriangleTest};
-use crate::hit::{Hit, Ids, RenamedTask, Visitor, with_renamed};
+use crate::hit::{Hit, Ids, RAY_DONE, RenamedTask, Visitor, with_renamed};
 use crate::query::{BatchError, BatchQueries, RayQueries};
-use crate::scene::filter::SceneView;
-use crate::scene::instance::{ALL_LAYERS, Instance, grown, ray_pad};
+use crate::scene::filter::{FilteredBatch, RayFilter, SceneView, back_face, seen};
+use crate::scene::instance::{Instance, grown, ray_pad};
 use crate::scene::top::TopNode;
 use crate::scene::world::Scene;
 
@@ -38,6 +40,8 @@ pub struct SceneScratch {
     lanes: Lanes,
     /// Per mesh-space lane: the ray's index in the world stream and its id in the batch.
     outer: Vec<(u32, u32)>,
+    /// Per mesh-space lane: its direction if the ray culls back faces.
+    faces: Vec<Option<Vec3>>,
     inner: <AnyAccel as Accel>::Scratch,
 }
 
@@ -76,10 +80,27 @@ impl<K: TriangleTest> RenamedTask for InstanceStream<'_, '_, K> {
     }
 }
 
-/// True if an instance on layers `layers` is seen by a query on layers `mask`.
-#[inline(always)]
-fn seen(layers: u32, mask: u32) -> bool {
-    layers & mask != 0
+/// The filters of a query: one for every ray, or one per ray of the batch (by batch index).
+#[derive(Clone, Copy)]
+enum Filters<'a> {
+    Same(RayFilter),
+    PerRay(&'a [RayFilter]),
+}
+
+impl Filters<'_> {
+    /// The filter of ray `i` of `stream`, a stream the batched queries made.
+    #[inline(always)]
+    fn of(&self, stream: &RayStream<'_>, i: usize) -> RayFilter {
+        match self {
+            Filters::Same(filter) => *filter,
+            Filters::PerRay(filters) => {
+                let index = stream
+                    .batch_index(i)
+                    .expect("a stream of the batch's own rays");
+                filters[index]
+            }
+        }
+    }
 }
 
 /// Whether rays of the stream's octant visit an inner node's second child first.
@@ -89,10 +110,12 @@ fn second_first(node: &TopNode, octant_mask: u8) -> bool {
 }
 
 /// One ray through the scene's top-level subtree under node `start` (the root for a per-ray
-/// query; a node a stream reached with few rays left, see [`trace_stream`]).
+/// query; a node a stream reached with few rays left, see [`trace_stream`]). The ray's range
+/// is already the filter's ([`RayFilter::prepare`]).
+#[allow(clippy::too_many_arguments)]
 fn trace_one<K: TriangleTest, V: Visitor>(
     scene: &Scene,
-    mask: u32,
+    filter: &RayFilter,
     ray: &PreparedRay,
     id: u32,
     start: u32,
@@ -114,15 +137,18 @@ fn trace_one<K: TriangleTest, V: Visitor>(
         if tmax < ray.tmin {
             break;
         }
-        if !seen(node.mask, mask) || !grown(&node.bounds, pad).hit_by(ray, tmax) {
+        if !seen(node.mask, filter.layers) || !grown(&node.bounds, pad).hit_by(ray, tmax) {
             continue;
         }
         visitor.enter_node(id);
         if node.is_leaf() {
             for slot in node.first..node.first + node.count {
-                let instance = &scene.instances[scene.top.order[slot as usize] as usize];
-                if seen(instance.mask, mask) {
-                    tmax = trace_instance::<K, V>(scene, instance, ray, tmax, id, scratch, visitor);
+                let index = scene.top.order[slot as usize];
+                let instance = &scene.instances[index as usize];
+                if filter.admits(index, instance) {
+                    let cull = filter.cull_back_faces;
+                    let visit = (ray, tmax, id, cull);
+                    tmax = trace_instance::<K, V>(scene, instance, visit, scratch, visitor);
                 }
             }
         } else {
@@ -137,22 +163,36 @@ fn trace_one<K: TriangleTest, V: Visitor>(
     tmax
 }
 
-/// One ray on one instance, in its mesh space; returns the new range end.
+/// One ray (`ray` with range end `tmax`, as ray `id`, culling back faces if `cull`) on one
+/// instance, in its mesh space; returns the new range end.
 #[inline]
 fn trace_instance<K: TriangleTest, V: Visitor>(
     scene: &Scene,
     instance: &Instance,
-    ray: &PreparedRay,
-    tmax: f32,
-    id: u32,
+    (ray, tmax, id, cull): (&PreparedRay, f32, u32, bool),
     scratch: &mut SceneScratch,
     visitor: &mut V,
 ) -> f32 {
     let Some(local) = instance.transform.prepared_to_mesh(ray, tmax) else {
         return tmax;
     };
+    let mesh = &scene.meshes[instance.mesh()];
+    if cull {
+        // The mesh's walk sees the ray as number 0; the filter renames it back.
+        let outer = [(0, id)];
+        let faces = [Some(local.dir)];
+        let task = InstanceRay::<K::AnyAxis> {
+            mesh,
+            ray: &local,
+            id: 0,
+            scratch: &mut scratch.inner,
+            kernel: PhantomData,
+        };
+        let mut front = FrontFaces::new(mesh, instance.first_id, (&outer, &faces), visitor);
+        return with_renamed(Ids::Offset(0), None, &mut front, task);
+    }
     let task = InstanceRay::<K::AnyAxis> {
-        mesh: &scene.meshes[instance.mesh()],
+        mesh,
         ray: &local,
         id,
         scratch: &mut scratch.inner,
@@ -161,10 +201,62 @@ fn trace_instance<K: TriangleTest, V: Visitor>(
     with_renamed(Ids::Offset(instance.first_id), None, visitor, task)
 }
 
+/// The caller's visitor behind a filter that drops hits on back faces, for one instance visit
+/// whose walk reports mesh ids and mesh-space ray ids: it renames both for the caller.
+struct FrontFaces<'a, V> {
+    mesh: &'a AnyAccel,
+    first_id: u32,
+    /// By mesh-space ray id: the ray's index in the caller's stream and its id there.
+    outer: &'a [(u32, u32)],
+    /// By mesh-space ray id: the ray's mesh-space direction if it culls back faces.
+    faces: &'a [Option<Vec3>],
+    inner: &'a mut V,
+}
+
+impl<'a, V> FrontFaces<'a, V> {
+    fn new(
+        mesh: &'a AnyAccel,
+        first_id: u32,
+        (outer, faces): (&'a [(u32, u32)], &'a [Option<Vec3>]),
+        inner: &'a mut V,
+    ) -> Self {
+        Self {
+            mesh,
+            first_id,
+            outer,
+            faces,
+            inner,
+        }
+    }
+}
+
+impl<V: Visitor> Visitor for FrontFaces<'_, V> {
+    const COUNTS_NODES: bool = V::COUNTS_NODES;
+    const ENDS_RAYS: bool = V::ENDS_RAYS;
+
+    #[inline(always)]
+    fn visit(&mut self, ray: u32, hit: Hit, tmax: &mut f32) {
+        let lane = ray as usize;
+        if let Some(dir) = self.faces[lane]
+            && back_face(self.mesh.corners(hit.triangle), dir)
+        {
+            return;
+        }
+        let triangle = self.first_id + hit.triangle;
+        self.inner
+            .visit(self.outer[lane].1, Hit { triangle, ..hit }, tmax);
+    }
+
+    #[inline(always)]
+    fn enter_node(&mut self, ray: u32) {
+        self.inner.enter_node(self.outer[ray as usize].1);
+    }
+}
+
 /// A stream through the scene (see the module docs).
 fn trace_stream<K: TriangleTest, V: Visitor>(
     scene: &Scene,
-    mask: u32,
+    filters: Filters<'_>,
     stream: &mut RayStream<'_>,
     scratch: &mut SceneScratch,
     visitor: &mut V,
@@ -173,6 +265,7 @@ fn trace_stream<K: TriangleTest, V: Visitor>(
     if nodes.is_empty() || stream.is_empty() {
         return;
     }
+    let layers = prepare_ranges(filters, stream);
     let pad = stream_pad(stream);
     let octant_mask = stream.octant_mask();
     let mut pending = std::mem::take(&mut scratch.stream_stack);
@@ -180,7 +273,7 @@ fn trace_stream<K: TriangleTest, V: Visitor>(
     pending.push((0, stream.len() as u32));
     while let Some((index, count)) = pending.pop() {
         let node = &nodes[index as usize];
-        if !seen(node.mask, mask) {
+        if !seen(node.mask, layers) {
             continue;
         }
         let active = stream.partition(count as usize, &grown(&node.bounds, pad));
@@ -191,18 +284,25 @@ fn trace_stream<K: TriangleTest, V: Visitor>(
             // Too few rays left for the stream's bookkeeping to pay: finish them one by one
             // from this node, with the per-ray walk (same instances, same answers).
             for i in 0..active {
-                let ray = stream.ray(i);
-                let id = stream.id(i);
-                let tmax = trace_one::<K, V>(scene, mask, &ray, id, index, scratch, visitor);
+                let (ray, id, filter) = (stream.ray(i), stream.id(i), filters.of(stream, i));
+                let tmax = trace_one::<K, V>(scene, &filter, &ray, id, index, scratch, visitor);
                 stream.set_tmax(i, tmax);
             }
             continue;
         }
         if node.is_leaf() {
             for slot in node.first..node.first + node.count {
-                let instance = &scene.instances[scene.top.order[slot as usize] as usize];
-                if seen(instance.mask, mask) {
-                    stream_instance::<K, V>(scene, instance, stream, active, scratch, visitor);
+                let index = scene.top.order[slot as usize];
+                let instance = &scene.instances[index as usize];
+                let visit = (index, instance, active);
+                match filters {
+                    Filters::Same(filter) if filter.admits(index, instance) => {
+                        stream_instance::<K, V>(scene, visit, stream, filters, scratch, visitor)
+                    }
+                    Filters::PerRay(_) if seen(instance.mask, layers) => {
+                        stream_instance::<K, V>(scene, visit, stream, filters, scratch, visitor)
+                    }
+                    _ => {}
                 }
             }
         } else {
@@ -219,24 +319,52 @@ fn trace_stream<K: TriangleTest, V: Visitor>(
     scratch.stream_stack = pending;
 }
 
+/// Gives each ray of `stream` its filter's range ([`RayFilter::range`]; a ray whose range
+/// holds no float is ended) and returns the union of the rays' layers.
+fn prepare_ranges(filters: Filters<'_>, stream: &mut RayStream<'_>) -> u32 {
+    if let Filters::Same(filter) = filters
+        && filter.include_ends
+    {
+        return filter.layers;
+    }
+    let mut layers = 0;
+    for i in 0..stream.len() {
+        let filter = filters.of(stream, i);
+        layers |= filter.layers;
+        if filter.include_ends {
+            continue;
+        }
+        let ray = stream.ray(i);
+        if let Some((tmin, tmax)) = filter.range(ray.tmin, ray.tmax) {
+            stream.set_tmin(i, tmin);
+            stream.set_tmax(i, tmax);
+        } else {
+            stream.set_tmax(i, RAY_DONE);
+        }
+    }
+    layers
+}
+
 /// One padding for the whole stream: the largest any of its rays needs, read from the origin
 /// columns alone.
 fn stream_pad(stream: &RayStream<'_>) -> f32 {
     (0..stream.len()).fold(0.0f32, |m, i| m.max(ray_pad(stream.origin(i))))
 }
 
-/// Rays `0..active` of `stream` on one instance: transformed once into mesh-space lanes,
-/// traced as one stream, their range ends copied back.
+/// Rays `0..active` of `stream` on instance number `index`: those its filter admits,
+/// transformed once into mesh-space lanes, traced as one stream, their range ends copied
+/// back.
 fn stream_instance<K: TriangleTest, V: Visitor>(
     scene: &Scene,
-    instance: &Instance,
+    (index, instance, active): (u32, &Instance, usize),
     stream: &mut RayStream<'_>,
-    active: usize,
+    filters: Filters<'_>,
     scratch: &mut SceneScratch,
     visitor: &mut V,
 ) {
     let mesh = &scene.meshes[instance.mesh()];
-    if instance.transform.is_identity() {
+    let as_is = matches!(filters, Filters::Same(filter) if !filter.cull_back_faces);
+    if as_is && instance.transform.is_identity() {
         // Mesh space is world space: the stream's own rays go down the mesh's tree as they
         // are (the tree only reorders them within the prefix, which keeps the set).
         let mut local = stream.prefix(active);
@@ -252,6 +380,7 @@ fn stream_instance<K: TriangleTest, V: Visitor>(
     let SceneScratch {
         lanes,
         outer,
+        faces,
         inner,
         ..
     } = scratch;
@@ -261,11 +390,19 @@ fn stream_instance<K: TriangleTest, V: Visitor>(
         lanes.reset(active);
     }
     outer.clear();
+    faces.clear();
+    let mut culls = false;
     for i in 0..active {
+        let filter = filters.of(stream, i);
+        if !filter.admits(index, instance) {
+            continue;
+        }
         let ray = stream.ray(i);
         if let Some(local) = instance.transform.prepared_to_mesh(&ray, ray.tmax) {
             lanes.set(outer.len(), &local, outer.len() as u32);
             outer.push((i as u32, stream.id(i)));
+            faces.push(filter.cull_back_faces.then_some(local.dir));
+            culls |= filter.cull_back_faces;
         }
     }
     let n = outer.len();
@@ -280,7 +417,12 @@ fn stream_instance<K: TriangleTest, V: Visitor>(
         scratch: inner,
         kernel: PhantomData,
     };
-    with_renamed(Ids::Offset(instance.first_id), Some(outer), visitor, task);
+    if culls {
+        let mut front = FrontFaces::new(mesh, instance.first_id, (outer, faces), visitor);
+        with_renamed(Ids::Offset(0), None, &mut front, task);
+    } else {
+        with_renamed(Ids::Offset(instance.first_id), Some(outer), visitor, task);
+    }
     for lane in 0..n {
         let (i, _) = outer[lanes.id(lane) as usize];
         stream.set_tmax(i as usize, lanes.tmax(lane));
@@ -300,7 +442,10 @@ impl Accel for SceneView<'_> {
         scratch: &mut Self::Scratch,
         visitor: &mut V,
     ) -> f32 {
-        trace_one::<K, V>(self.scene, self.mask, ray, id, 0, scratch, visitor)
+        let Some(ray) = self.filter.prepare(ray) else {
+            return ray.tmax;
+        };
+        trace_one::<K, V>(self.scene, &self.filter, &ray, id, 0, scratch, visitor)
     }
 
     fn trace_stream<K: TriangleTest, V: Visitor>(
@@ -309,35 +454,66 @@ impl Accel for SceneView<'_> {
         scratch: &mut Self::Scratch,
         visitor: &mut V,
     ) {
-        trace_stream::<K, V>(self.scene, self.mask, stream, scratch, visitor)
+        let filters = Filters::Same(self.filter);
+        trace_stream::<K, V>(self.scene, filters, stream, scratch, visitor)
+    }
+}
+
+/// A batch with a filter per ray: only ever traced as the batched queries' streams, whose rays
+/// know their batch index (a per-ray query goes through [`Scene::filtered`]).
+impl Accel for FilteredBatch<'_> {
+    type Scratch = SceneScratch;
+    const STREAM_LAYOUT: StreamLayout = StreamLayout::Lanes;
+
+    /// Ray `id` is the ray of index `id` in the batch.
+    fn trace<K: TriangleTest, V: Visitor>(
+        &self,
+        ray: &PreparedRay,
+        id: u32,
+        scratch: &mut Self::Scratch,
+        visitor: &mut V,
+    ) -> f32 {
+        let view = self.scene.filtered(self.filters[id as usize]);
+        view.trace::<K, V>(ray, id, scratch, visitor)
+    }
+
+    fn trace_stream<K: TriangleTest, V: Visitor>(
+        &self,
+        stream: &mut RayStream<'_>,
+        scratch: &mut Self::Scratch,
+        visitor: &mut V,
+    ) {
+        let filters = Filters::PerRay(self.filters);
+        trace_stream::<K, V>(self.scene, filters, stream, scratch, visitor)
     }
 }
 
 crate::query::compiled_queries!(SceneView<'_>);
 
-/// The scene's queries are its view's on every layer ([`ALL_LAYERS`]).
+/// The scene's queries are its view through [`RayFilter::ALL`].
 impl RayQueries for Scene {
     #[cfg_attr(test, inline)]
     fn cast_ray_with(&self, ray: &Ray, kernel: Kernel) -> Option<Hit> {
-        self.filtered(ALL_LAYERS).cast_ray_with(ray, kernel)
+        self.filtered(RayFilter::ALL).cast_ray_with(ray, kernel)
     }
     #[cfg_attr(test, inline)]
     fn cast_ray_visits(&self, ray: &Ray, kernel: Kernel) -> (Option<Hit>, u32) {
-        self.filtered(ALL_LAYERS).cast_ray_visits(ray, kernel)
+        self.filtered(RayFilter::ALL).cast_ray_visits(ray, kernel)
     }
     #[cfg_attr(test, inline)]
     fn occluded_with(&self, ray: &Ray, kernel: Kernel) -> bool {
-        self.filtered(ALL_LAYERS).occluded_with(ray, kernel)
+        self.filtered(RayFilter::ALL).occluded_with(ray, kernel)
     }
     #[cfg_attr(test, inline)]
     fn for_each_hit_with(&self, ray: &Ray, kernel: Kernel, f: &mut dyn FnMut(Hit)) {
-        self.filtered(ALL_LAYERS).for_each_hit_with(ray, kernel, f)
+        self.filtered(RayFilter::ALL)
+            .for_each_hit_with(ray, kernel, f)
     }
     fn visit<V: Visitor>(&self, ray: &Ray, kernel: Kernel, visitor: &mut V)
     where
         Self: Sized,
     {
-        self.filtered(ALL_LAYERS).visit(ray, kernel, visitor)
+        self.filtered(RayFilter::ALL).visit(ray, kernel, visitor)
     }
 }
 
@@ -349,7 +525,7 @@ impl BatchQueries for Scene {
         hits: &mut [Option<Hit>],
         options: &BatchOptions,
     ) -> Result<(), BatchError> {
-        self.filtered(ALL_LAYERS)
+        self.filtered(RayFilter::ALL)
             .cast_ray_batch_with(rays, hits, options)
     }
     #[cfg_attr(test, inline)]
@@ -359,7 +535,7 @@ impl BatchQueries for Scene {
         occluded: &mut [bool],
         options: &BatchOptions,
     ) -> Result<(), BatchError> {
-        self.filtered(ALL_LAYERS)
+        self.filtered(RayFilter::ALL)
             .occluded_batch_with(rays, occluded, options)
     }
     #[cfg_attr(test, inline)]
@@ -369,7 +545,7 @@ impl BatchQueries for Scene {
         options: &BatchOptions,
         f: &(dyn Fn(usize, Hit) + Sync),
     ) {
-        self.filtered(ALL_LAYERS)
+        self.filtered(RayFilter::ALL)
             .for_each_hit_batch_with(rays, options, f)
     }
 }

@@ -25,6 +25,7 @@ mod option_extremes;
 mod proptest_vs_brute_force;
 mod quantized_vertices;
 mod scene_edits;
+mod scene_filters;
 mod scene_resolved;
 mod scene_vs_brute_force;
 mod small_thread_stack;

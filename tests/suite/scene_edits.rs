@@ -11,7 +11,7 @@ use crate::common::rays::{hard_rays, incoherent};
 use crate::common::rng::{RngExt, seeded};
 use crate::common::scenes::{build_scene, scene_brute_force};
 use glam::{Quat, Vec3};
-use raybatch::scene::{InstanceDesc, Rigid, Scene, SceneError};
+use raybatch::scene::{InstanceDesc, RayFilter, Rigid, Scene, SceneError};
 use raybatch::{
     AccelKind, BatchOptions, BatchQueries, BuildOptions, Kernel, Mesh, MeshError, Ray, RayQueries,
 };
@@ -171,7 +171,7 @@ fn layers_filter_instances() {
     for ray in sphere_rays(200, 14) {
         for mask in [1, 2, 4, 5, 0] {
             let r = scene_brute_force(&meshes, &descs, &ray, Kernel::Watertight, mask);
-            let view = scene.filtered(mask);
+            let view = scene.filtered(RayFilter::on_layers(mask));
             assert_eq!(opt_bits(view.cast_ray(&ray)), opt_bits(r.closest));
             assert_eq!(view.occluded(&ray), r.occluded);
             if let Some(h) = view.cast_ray(&ray) {

@@ -6,7 +6,7 @@ use crate::common::meshes::{icosphere, transformed};
 use crate::common::rng::{in_cube, seeded};
 use crate::common::scenes::{build_scene, scene_brute_force};
 use glam::{DVec3, Quat, Vec3};
-use raybatch::scene::{InstanceDesc, Rigid, SceneHit};
+use raybatch::scene::{InstanceDesc, RayFilter, Rigid, SceneHit};
 use raybatch::{AccelKind, BatchError, Kernel, Mesh, Ray};
 
 #[test]
@@ -69,7 +69,7 @@ fn resolved_hits_name_the_triangle_and_its_world_normal() {
     let mut batched = vec![None; rays.len()];
     scene.cast_ray_batch_resolved(&rays, &mut batched).unwrap();
     assert_eq!(batched, per_ray);
-    let view = scene.filtered(u32::MAX);
+    let view = scene.filtered(RayFilter::ALL);
     let mut with_options = vec![None; rays.len()];
     let options = raybatch::BatchOptions::default().with_min_chunk(64);
     view.cast_ray_batch_resolved_with(&rays, &mut with_options, &options)

@@ -12,7 +12,7 @@ use crate::common::scenes::{build_scene, instances, scene_brute_force, world_mes
 use crate::common::strategies::{RaySpec, mesh_strategy, ray_spec};
 use glam::Vec3;
 use proptest::prelude::*;
-use raybatch::scene::{InstanceDesc, Rigid};
+use raybatch::scene::{InstanceDesc, RayFilter, Rigid};
 use raybatch::{AccelKind, BatchOptions, BatchQueries, Kernel, Mesh, Ray, RayQueries};
 
 /// Compares every query of `accel` (a scene or a filtered view) with the oracle on `rays`.
@@ -148,7 +148,7 @@ proptest! {
         let result = if mask == u32::MAX {
             compare(&scene, &meshes, &descs, &rays, mask, single_ray_below)
         } else {
-            compare(&scene.filtered(mask), &meshes, &descs, &rays, mask, single_ray_below)
+            compare(&scene.filtered(RayFilter::on_layers(mask)), &meshes, &descs, &rays, mask, single_ray_below)
         };
         result.map_err(TestCaseError::fail)?;
     }

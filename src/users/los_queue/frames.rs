@@ -4,7 +4,7 @@
 //! One word (`open`) holds the open buffer's parity in its top bit and the requests taken in
 //! the open frame in the other 63: a single atomic step both reserves slots and says which
 //! buffer they are in, and a flush closes the frame with a single swap. A submitter writes its
-//! ray's floats with relaxed stores into slots no one else was given, then counts them as
+//! ray's floats and filter with relaxed stores into slots no one else was given, then counts them as
 //! written (release); the flush waits until the closed buffer's written count reaches the
 //! number of slots reserved before the swap (acquire), so it reads every ray whole.
 //!
@@ -18,33 +18,61 @@ use crossbeam::utils::CachePadded;
 use glam::Vec3;
 
 use crate::geom::Ray;
+use crate::scene::RayFilter;
 
 /// The top bit of the open word: the open frame's parity.
 const PARITY: u64 = 1 << 63;
 
-/// One request's ray as the bits of its eight floats: origin, direction, `tmin`, `tmax`.
+/// One request: the bits of its ray's eight floats (origin, direction, `tmin`, `tmax`), then
+/// its filter's layers, ignored instance and flags.
 #[derive(Default)]
-struct Slot([AtomicU32; 8]);
+struct Slot([AtomicU32; 11]);
+
+/// Flag bits of a stored filter.
+const IGNORES: u32 = 1;
+const CULLS: u32 = 2;
+const OPEN: u32 = 4;
 
 impl Slot {
-    fn store(&self, ray: &Ray) {
-        let [ox, oy, oz] = ray.origin.to_array();
-        let [dx, dy, dz] = ray.dir.to_array();
-        for (cell, v) in self
-            .0
-            .iter()
-            .zip([ox, oy, oz, dx, dy, dz, ray.tmin, ray.tmax])
-        {
-            cell.store(v.to_bits(), Ordering::Relaxed);
+    fn store(&self, (ray, filter): &(Ray, RayFilter)) {
+        let [ox, oy, oz] = ray.origin.to_array().map(f32::to_bits);
+        let [dx, dy, dz] = ray.dir.to_array().map(f32::to_bits);
+        let (tmin, tmax) = (ray.tmin.to_bits(), ray.tmax.to_bits());
+        let flags = u32::from(filter.ignore.is_some()) * IGNORES
+            | u32::from(filter.cull_back_faces) * CULLS
+            | u32::from(!filter.include_ends) * OPEN;
+        let ignore = filter.ignore.unwrap_or(0);
+        let words = [
+            ox,
+            oy,
+            oz,
+            dx,
+            dy,
+            dz,
+            tmin,
+            tmax,
+            filter.layers,
+            ignore,
+            flags,
+        ];
+        for (cell, word) in self.0.iter().zip(words) {
+            cell.store(word, Ordering::Relaxed);
         }
     }
 
-    fn load(&self) -> Ray {
-        let [ox, oy, oz, dx, dy, dz, tmin, tmax] = self
-            .0
-            .each_ref()
-            .map(|c| f32::from_bits(c.load(Ordering::Relaxed)));
-        Ray::with_range(Vec3::new(ox, oy, oz), Vec3::new(dx, dy, dz), tmin, tmax)
+    fn load(&self) -> (Ray, RayFilter) {
+        let [ox, oy, oz, dx, dy, dz, tmin, tmax, layers, ignore, flags] =
+            self.0.each_ref().map(|c| c.load(Ordering::Relaxed));
+        let [ox, oy, oz, dx, dy, dz, tmin, tmax] =
+            [ox, oy, oz, dx, dy, dz, tmin, tmax].map(f32::from_bits);
+        let ray = Ray::with_range(Vec3::new(ox, oy, oz), Vec3::new(dx, dy, dz), tmin, tmax);
+        let filter = RayFilter {
+            layers,
+            ignore: (flags & IGNORES != 0).then_some(ignore),
+            cull_back_faces: flags & CULLS != 0,
+            include_ends: flags & OPEN == 0,
+        };
+        (ray, filter)
     }
 }
 
@@ -150,22 +178,26 @@ impl Frames {
         }
     }
 
-    /// Stores `rays` in the reserved slots and counts them as written.
-    pub fn write(&self, reservation: &Reservation, rays: impl Iterator<Item = Ray>) {
+    /// Stores `requests` in the reserved slots and counts them as written.
+    pub fn write(
+        &self,
+        reservation: &Reservation,
+        requests: impl Iterator<Item = (Ray, RayFilter)>,
+    ) {
         let buffer = &self.buffers[(reservation.frame & 1) as usize];
         let slots = &buffer.slots[reservation.first..reservation.first + reservation.count];
-        for (slot, ray) in slots.iter().zip(rays) {
-            slot.store(&ray);
+        for (slot, request) in slots.iter().zip(requests) {
+            slot.store(&request);
         }
         buffer
             .written
             .fetch_add(reservation.count, Ordering::Release);
     }
 
-    /// Closes the open frame, opens the next and appends the closed frame's rays to `rays`,
-    /// once every submitter that reserved a slot in it has written its ray. Returns the closed
-    /// frame's number. Only one flush may call this at a time.
-    pub fn close(&self, rays: &mut Vec<Ray>) -> u64 {
+    /// Closes the open frame, opens the next and appends the closed frame's rays and filters
+    /// to `rays` and `filters`, once every submitter that reserved a slot in it has written
+    /// its request. Returns the closed frame's number. Only one flush may call this at a time.
+    pub fn close(&self, rays: &mut Vec<Ray>, filters: &mut Vec<RayFilter>) -> u64 {
         let frame = self.open_frame.load(Ordering::Relaxed);
         // The new number is stored *before* the swap that opens its frame, and the swap
         // releases it: a submitter whose reservation reads the swapped word therefore reads
@@ -177,7 +209,10 @@ impl Frames {
         while buffer.written.load(Ordering::Acquire) < count {
             std::thread::yield_now();
         }
-        rays.extend(buffer.slots[..count].iter().map(Slot::load));
+        for (ray, filter) in buffer.slots[..count].iter().map(Slot::load) {
+            rays.push(ray);
+            filters.push(filter);
+        }
         buffer.written.store(0, Ordering::Relaxed);
         frame
     }

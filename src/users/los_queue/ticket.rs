@@ -74,6 +74,14 @@ pub enum QueueError {
     },
     /// The ticket belongs to a frame older than the last one answered: its answer is gone.
     Stale,
+    /// [`super::LosQueue::submit_all_filtered`] got a number of filters other than its
+    /// number of rays.
+    FilterCount {
+        /// Number of rays.
+        rays: usize,
+        /// Number of filters.
+        filters: usize,
+    },
 }
 
 impl std::fmt::Display for QueueError {
@@ -99,6 +107,9 @@ impl std::fmt::Display for QueueError {
                 super::LosQueue::MAX_CAPACITY
             ),
             QueueError::Stale => f.write_str("the ticket's answer was replaced by a later flush"),
+            QueueError::FilterCount { rays, filters } => {
+                write!(f, "{filters} filters for {rays} sightlines; each needs one")
+            }
         }
     }
 }

@@ -7,7 +7,7 @@ use std::sync::Arc;
 use glam::{Quat, Vec3};
 use proptest::prelude::*;
 use raybatch::brute_force;
-use raybatch::scene::{InstanceDesc, Rigid, Scene};
+use raybatch::scene::{InstanceDesc, RayFilter, Rigid, Scene};
 use raybatch::{AccelKind, BuildOptions, Hit, Kernel, Mesh, Ray};
 
 /// The brute-force answers of a scene for one ray and kernel, in global ids.
@@ -26,18 +26,51 @@ pub fn scene_brute_force(
     kernel: Kernel,
     mask: u32,
 ) -> SceneReference {
+    let filter = RayFilter::on_layers(mask);
+    scene_brute_force_filtered(meshes, instances, ray, kernel, &filter)
+}
+
+/// Brute force over every instance of `meshes` placed by `instances`, through `filter` as its
+/// docs define it: the instances on its layers but the ignored one, the range open without
+/// the ends, no hit whose mesh-space ray runs along its triangle's winding normal when
+/// culling back faces.
+pub fn scene_brute_force_filtered(
+    meshes: &[Mesh],
+    instances: &[InstanceDesc],
+    ray: &Ray,
+    kernel: Kernel,
+    filter: &RayFilter,
+) -> SceneReference {
     let mut all = Vec::new();
-    if ray.is_valid() {
+    let range = if filter.include_ends {
+        Some((ray.tmin, ray.tmax))
+    } else {
+        let (lo, hi) = (ray.tmin.next_up(), ray.tmax.next_down());
+        (lo <= hi).then_some((lo, hi))
+    };
+    if let (true, Some((tmin, tmax))) = (ray.is_valid(), range) {
+        let ray = Ray::with_range(ray.origin, ray.dir, tmin, tmax);
         let mut first = 0u32;
-        for d in instances {
+        for (index, d) in instances.iter().enumerate() {
             let mesh = &meshes[d.mesh];
-            if d.mask & mask != 0 {
-                let local = d.transform.ray_to_mesh(ray);
+            let ignored = filter.ignore == Some(index as u32);
+            if d.mask & filter.layers != 0 && !ignored {
+                let local = d.transform.ray_to_mesh(&ray);
+                // The direction as queries prepare it: subnormal components flushed to zero.
+                let dir = local
+                    .dir
+                    .to_array()
+                    .map(|x| if x.abs() < f32::MIN_POSITIVE { 0.0 } else { x });
+                let dir = glam::DVec3::from(Vec3::from(dir).as_dvec3());
                 brute_force::for_each_hit(mesh, &local, kernel, |h| {
-                    all.push(Hit {
-                        triangle: first + h.triangle,
-                        ..h
-                    })
+                    let [a, b, c] = mesh.triangle(h.triangle).map(|v| v.as_dvec3());
+                    let along = (b - a).cross(c - a).dot(dir) > 0.0;
+                    if !(filter.cull_back_faces && along) {
+                        all.push(Hit {
+                            triangle: first + h.triangle,
+                            ..h
+                        })
+                    }
                 });
             }
             first += mesh.triangle_count() as u32;
