@@ -42,6 +42,8 @@ pub struct SceneScratch {
     outer: Vec<(u32, u32)>,
     /// Per mesh-space lane: its direction if the ray culls back faces.
     faces: Vec<Option<Vec3>>,
+    /// A batch's per-ray filters by ray id in the stream.
+    filters: Vec<RayFilter>,
     inner: <AnyAccel as Accel>::Scratch,
 }
 
@@ -80,11 +82,13 @@ impl<K: TriangleTest> RenamedTask for InstanceStream<'_, '_, K> {
     }
 }
 
-/// The filters of a query: one for every ray, or one per ray of the batch (by batch index).
+/// The filters of a query: one for every ray, or one per ray of the batch, by batch index
+/// (as the caller gives them) or by ray id in the stream (as the walk reads them).
 #[derive(Clone, Copy)]
 enum Filters<'a> {
     Same(RayFilter),
     PerRay(&'a [RayFilter]),
+    ById(&'a [RayFilter]),
 }
 
 impl Filters<'_> {
@@ -99,6 +103,7 @@ impl Filters<'_> {
                     .expect("a stream of the batch's own rays");
                 filters[index]
             }
+            Filters::ById(filters) => filters[stream.id(i) as usize],
         }
     }
 }
@@ -253,7 +258,8 @@ impl<V: Visitor> Visitor for FrontFaces<'_, V> {
     }
 }
 
-/// A stream through the scene (see the module docs).
+/// A stream through the scene (see the module docs). Filters by batch index are first
+/// copied by ray id, which the walk reads with one lookup less.
 fn trace_stream<K: TriangleTest, V: Visitor>(
     scene: &Scene,
     filters: Filters<'_>,
@@ -261,10 +267,33 @@ fn trace_stream<K: TriangleTest, V: Visitor>(
     scratch: &mut SceneScratch,
     visitor: &mut V,
 ) {
-    let nodes = &scene.top.nodes;
-    if nodes.is_empty() || stream.is_empty() {
+    if scene.top.nodes.is_empty() || stream.is_empty() {
         return;
     }
+    let Filters::PerRay(_) = filters else {
+        return walk_stream::<K, V>(scene, filters, stream, scratch, visitor);
+    };
+    let mut by_id = std::mem::take(&mut scratch.filters);
+    for i in 0..stream.len() {
+        let id = stream.id(i) as usize;
+        if by_id.len() <= id {
+            by_id.resize(id + 1, RayFilter::ALL);
+        }
+        by_id[id] = filters.of(stream, i);
+    }
+    walk_stream::<K, V>(scene, Filters::ById(&by_id), stream, scratch, visitor);
+    scratch.filters = by_id;
+}
+
+/// [`trace_stream`] once its filters are read.
+fn walk_stream<K: TriangleTest, V: Visitor>(
+    scene: &Scene,
+    filters: Filters<'_>,
+    stream: &mut RayStream<'_>,
+    scratch: &mut SceneScratch,
+    visitor: &mut V,
+) {
+    let nodes = &scene.top.nodes;
     let layers = prepare_ranges(filters, stream);
     let pad = stream_pad(stream);
     let octant_mask = stream.octant_mask();
@@ -299,7 +328,7 @@ fn trace_stream<K: TriangleTest, V: Visitor>(
                     Filters::Same(filter) if filter.admits(index, instance) => {
                         stream_instance::<K, V>(scene, visit, stream, filters, scratch, visitor)
                     }
-                    Filters::PerRay(_) if seen(instance.mask, layers) => {
+                    Filters::PerRay(_) | Filters::ById(_) if seen(instance.mask, layers) => {
                         stream_instance::<K, V>(scene, visit, stream, filters, scratch, visitor)
                     }
                     _ => {}
@@ -363,7 +392,18 @@ fn stream_instance<K: TriangleTest, V: Visitor>(
     visitor: &mut V,
 ) {
     let mesh = &scene.meshes[instance.mesh()];
-    let as_is = matches!(filters, Filters::Same(filter) if !filter.cull_back_faces);
+    let as_is = match filters {
+        Filters::Same(filter) => !filter.cull_back_faces,
+        // Most rays of a batch take part in most instances they reach: one pass may spare
+        // the copy.
+        _ => {
+            instance.transform.is_identity()
+                && (0..active).all(|i| {
+                    let filter = filters.of(stream, i);
+                    filter.admits(index, instance) && !filter.cull_back_faces
+                })
+        }
+    };
     if as_is && instance.transform.is_identity() {
         // Mesh space is world space: the stream's own rays go down the mesh's tree as they
         // are (the tree only reorders them within the prefix, which keeps the set).
