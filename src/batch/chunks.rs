@@ -18,18 +18,27 @@ use super::options::BatchOptions;
 use crate::geom::Ray;
 use crate::parallel;
 
+/// The smallest share of a batch a thread is given when the batch holds less than
+/// [`BatchOptions::min_chunk`] rays per thread: a game frame's 2,000 sightlines then run on
+/// two threads, while a task still holds far more work than it costs to start one.
+pub(crate) const SMALLEST_SHARE: usize = 512;
+
 /// The chunks of a batch of `n` rays for `threads` threads, in order, as ray ranges: each
 /// takes `1 / (2 * threads)` of the rays not yet handed out, within `[smallest, largest]`
-/// ([`BatchOptions::chunk_bounds`]; the last one takes whatever is left).
+/// ([`BatchOptions::chunk_bounds`]; the last one takes whatever is left). A batch too small
+/// to give each thread `smallest` rays is cut evenly over the threads instead, in chunks of
+/// at least [`SMALLEST_SHARE`] rays.
 pub(crate) fn plan(
     n: usize,
     threads: usize,
     (smallest, largest): (usize, usize),
 ) -> Vec<std::ops::Range<usize>> {
+    let threads = threads.max(1);
+    let smallest = smallest.min(n.div_ceil(threads).max(SMALLEST_SHARE));
     let mut chunks = Vec::new();
     let mut start = 0;
     while start < n {
-        let share = (n - start).div_ceil(2 * threads.max(1));
+        let share = (n - start).div_ceil(2 * threads);
         let end = n.min(start + share.clamp(smallest, largest));
         chunks.push(start..end);
         start = end;
@@ -99,7 +108,8 @@ mod tests {
                 for (k, range) in plan.iter().enumerate() {
                     assert_eq!(range.start, start, "n {n}, threads {threads}");
                     assert!(range.len() <= 1 << 17 && !range.is_empty());
-                    assert!(range.len() >= 4096 || k + 1 == plan.len());
+                    let smallest = n.div_ceil(threads).clamp(SMALLEST_SHARE, 4096);
+                    assert!(range.len() >= smallest || k + 1 == plan.len());
                     if let Some(next) = plan.get(k + 1) {
                         assert!(next.len() <= range.len(), "n {n}, threads {threads}");
                     }
@@ -112,5 +122,11 @@ mod tests {
         let plan = plan(1_000_000, 2, bounds);
         assert_eq!(plan[0].len(), 1 << 17);
         assert!(plan.len() > 10 && plan.last().unwrap().len() <= 4096);
+        // A frame's few thousand sightlines: one chunk per thread.
+        let lens = |n, threads| plan(n, threads, bounds).iter().map(|r| r.len()).collect();
+        assert_eq!(lens(2000, 2), vec![1000, 1000]);
+        assert_eq!(lens(6000, 2), vec![3000, 3000]);
+        assert_eq!(lens(700, 2), vec![512, 188]);
+        assert_eq!(lens(1500, 8), vec![512, 512, 476]);
     }
 }

@@ -222,6 +222,27 @@ fn for_each_prepared_chunk<A: Accel, T: Send>(
     });
 }
 
+/// Runs `f(ray, out)` on each ray and its output, one ray at a time, the batch cut into
+/// chunks over the threads as a streamed batch would be: the path of batches too small for a
+/// stream (or with a kernel the streams do not run).
+pub(crate) fn each_ray<A: Accel, T: Send>(
+    accel: &A,
+    (rays, out): (&[Ray], &mut [T]),
+    options: &BatchOptions,
+    f: impl Fn(&Ray, &mut T) + Sync,
+) {
+    for_each_chunk(
+        rays,
+        out,
+        (options, accel.max_chunk(rays)),
+        |_, rays, out| {
+            for (ray, out) in rays.iter().zip(out) {
+                f(ray, out);
+            }
+        },
+    );
+}
+
 /// Writes each ray's closest hit from the chunk's answers by slot, in position order
 /// (sequential writes; invalid rays have no slot: a miss); returns how many rays have one.
 fn write_closest(hits: &mut [Option<Hit>], slots: &Slots, best: &[Hit]) -> u64 {
@@ -293,9 +314,9 @@ pub(crate) fn cast_ray_batch_with<A: Accel>(
 ) -> Result<(), BatchError> {
     check_lengths(rays.len(), hits.len())?;
     if ray_by_ray(rays, options) {
-        for (ray, hit) in rays.iter().zip(hits.iter_mut()) {
-            *hit = single::cast_ray_with(accel, ray, options.kernel);
-        }
+        each_ray(accel, (rays, hits), options, |ray, hit| {
+            *hit = single::cast_ray_with(accel, ray, options.kernel)
+        });
         return Ok(());
     }
     for_each_prepared_chunk(
@@ -338,9 +359,9 @@ pub(crate) fn occluded_batch_with<A: Accel>(
 ) -> Result<(), BatchError> {
     check_lengths(rays.len(), occluded.len())?;
     if ray_by_ray(rays, options) {
-        for (ray, out) in rays.iter().zip(occluded.iter_mut()) {
-            *out = single::occluded_with(accel, ray, options.kernel);
-        }
+        each_ray(accel, (rays, occluded), options, |ray, out| {
+            *out = single::occluded_with(accel, ray, options.kernel)
+        });
         return Ok(());
     }
     for_each_prepared_chunk(
@@ -370,14 +391,22 @@ pub(crate) fn for_each_hit_batch_with<A: Accel>(
     options: &BatchOptions,
     f: &(dyn Fn(usize, Hit) + Sync),
 ) {
-    if ray_by_ray(rays, options) {
-        for (i, ray) in rays.iter().enumerate() {
-            single::for_each_hit_with(accel, ray, options.kernel, &mut |h| f(i, h));
-        }
-        return;
-    }
     // No output slice: chunks are matched with zero-sized slots.
     let mut slots = vec![(); rays.len()];
+    if ray_by_ray(rays, options) {
+        for_each_chunk(
+            rays,
+            &mut slots,
+            (options, accel.max_chunk(rays)),
+            |offset, rays, _| {
+                for (k, ray) in rays.iter().enumerate() {
+                    let i = offset + k;
+                    single::for_each_hit_with(accel, ray, options.kernel, &mut |h| f(i, h));
+                }
+            },
+        );
+        return;
+    }
     for_each_prepared_chunk(
         accel,
         (rays, &mut slots),

@@ -25,6 +25,7 @@
 use glam::{DVec3, Vec3};
 
 use crate::batch::BatchOptions;
+use crate::batch::chunks::for_each_chunk;
 use crate::geom::{PreparedRay, Ray};
 use crate::hit::Hit;
 use crate::query::RayQueries;
@@ -194,12 +195,12 @@ impl<'a> FilteredBatch<'a> {
     ) -> Result<(), BatchError> {
         self.check(rays, hits.len())?;
         if batched::ray_by_ray(rays, options) {
-            for ((ray, filter), hit) in rays.iter().zip(self.filters).zip(hits) {
-                *hit = self
-                    .scene
-                    .filtered(*filter)
-                    .cast_ray_with(ray, options.kernel);
-            }
+            for_each_chunk(rays, hits, (options, rays.len()), |offset, rays, hits| {
+                for (k, (ray, hit)) in rays.iter().zip(hits).enumerate() {
+                    let view = self.scene.filtered(self.filters[offset + k]);
+                    *hit = view.cast_ray_with(ray, options.kernel);
+                }
+            });
             return Ok(());
         }
         batched::cast_ray_batch_with(self, rays, hits, options)
@@ -221,12 +222,17 @@ impl<'a> FilteredBatch<'a> {
     ) -> Result<(), BatchError> {
         self.check(rays, occluded.len())?;
         if batched::ray_by_ray(rays, options) {
-            for ((ray, filter), out) in rays.iter().zip(self.filters).zip(occluded) {
-                *out = self
-                    .scene
-                    .filtered(*filter)
-                    .occluded_with(ray, options.kernel);
-            }
+            for_each_chunk(
+                rays,
+                occluded,
+                (options, rays.len()),
+                |offset, rays, out| {
+                    for (k, (ray, out)) in rays.iter().zip(out).enumerate() {
+                        let view = self.scene.filtered(self.filters[offset + k]);
+                        *out = view.occluded_with(ray, options.kernel);
+                    }
+                },
+            );
             return Ok(());
         }
         batched::occluded_batch_with(self, rays, occluded, options)

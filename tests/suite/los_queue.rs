@@ -322,3 +322,69 @@ fn concurrent_submits_and_flushes_lose_and_mix_nothing() {
     assert_eq!(flushed, expected);
     assert_eq!(taken.lock().unwrap().len(), expected);
 }
+
+/// A job system's frame, a thousand times: eight producer threads submit (one by one, as
+/// lists, with and without filters), one flush per frame answers them, and every producer
+/// reads every answer and compares it with the per-ray answer through the same filter.
+#[test]
+#[ignore = "heavy: 8 producers x 1,000 frames (the full tier)"]
+fn eight_producers_a_thousand_frames() {
+    use std::sync::Barrier;
+    use std::sync::atomic::{AtomicUsize, Ordering};
+
+    use raybatch::scene::RayFilter;
+
+    let scene = world();
+    let (producers, frames, per_frame) = (8usize, 1000usize, 24usize);
+    let queue = LosQueue::with_capacity(producers * per_frame).unwrap();
+    let submitted = Barrier::new(producers + 1);
+    let answered = Barrier::new(producers + 1);
+    let checked = AtomicUsize::new(0);
+    std::thread::scope(|s| {
+        for p in 0..producers {
+            let (queue, scene, checked) = (&queue, &scene, &checked);
+            let (submitted, answered) = (&submitted, &answered);
+            s.spawn(move || {
+                let mut rng = seeded(9000 + p as u64);
+                for frame in 0..frames {
+                    let rays: Vec<Ray> = (0..per_frame)
+                        .map(|_| Ray::segment(in_cube(&mut rng, 6.0), in_cube(&mut rng, 6.0)))
+                        .collect();
+                    let filters: Vec<RayFilter> = (0..per_frame)
+                        .map(|k| match (frame + k + p) % 4 {
+                            0 => RayFilter::ALL,
+                            1 => RayFilter::ALL.ignoring(((k + p) % 9) as u32),
+                            2 => RayFilter::ALL.culling_back_faces(),
+                            _ => RayFilter::ALL.without_ends().ignoring((k % 9) as u32),
+                        })
+                        .collect();
+                    let tickets: Vec<Ticket> = if (frame + p) % 2 == 0 {
+                        let first = queue.submit_all_filtered(&rays, &filters).unwrap();
+                        (0..per_frame).map(|k| first.offset(k)).collect()
+                    } else {
+                        rays.iter()
+                            .zip(&filters)
+                            .map(|(r, f)| queue.submit_filtered(*r, *f).unwrap())
+                            .collect()
+                    };
+                    submitted.wait();
+                    answered.wait();
+                    for ((ray, filter), ticket) in rays.iter().zip(&filters).zip(tickets) {
+                        let expected = scene.filtered(*filter).occluded(ray);
+                        assert_eq!(queue.occluded(ticket), Ok(expected), "frame {frame}");
+                        checked.fetch_add(1, Ordering::Relaxed);
+                    }
+                }
+            });
+        }
+        for _ in 0..frames {
+            submitted.wait();
+            assert_eq!(queue.flush(&scene), Ok(producers * per_frame));
+            answered.wait();
+        }
+    });
+    assert_eq!(
+        checked.load(Ordering::Relaxed),
+        producers * frames * per_frame
+    );
+}

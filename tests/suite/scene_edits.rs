@@ -435,3 +435,88 @@ fn scenes_pick_a_kind_per_mesh() {
         Err(SceneError::NoSuchMesh { mesh: 2, meshes: 2 })
     ));
 }
+
+/// Ten thousand random edits during play (add one or a few, remove, move, change layers),
+/// each followed by rays through the scene: every answer, per ray and batched, names the same
+/// instance, triangle and hit as a scene built from scratch over the live instances.
+#[test]
+#[ignore = "heavy: 10,000 edits, each checked against a scene built from scratch (the full tier)"]
+fn ten_thousand_random_edits_answer_as_fresh_scenes() {
+    let meshes = vec![icosphere(0), icosphere(1)];
+    let mut rng = seeded(77);
+    let place = |rng: &mut crate::common::rng::StdRng| {
+        let at = crate::common::rng::in_cube(rng, 6.0);
+        let turn = Quat::from_rotation_z(rng.random_range(0.0..6.0));
+        let scale = [0.5, 1.0, 2.0][rng.random_range(0..3)];
+        let rigid = Rigid::new(turn, at).unwrap().with_scale(scale).unwrap();
+        InstanceDesc::new(rng.random_range(0..2), rigid).with_mask(rng.random_range(1..4))
+    };
+    let first: Vec<InstanceDesc> = (0..8).map(|_| place(&mut rng)).collect();
+    let mut scene = build_scene(&meshes, &[AccelKind::Bvh4, AccelKind::Bvh8], &first);
+    let options = BatchOptions::default().with_min_batch(0);
+    for edit in 0..10_000 {
+        let count = scene.instances().len();
+        let live: Vec<usize> = (0..count)
+            .filter(|&i| !scene.instances()[i].is_removed())
+            .collect();
+        match rng.random_range(0..10) {
+            0..=2 => {
+                let n = if rng.random_range(0..8) == 0 { 5 } else { 1 };
+                let added: Vec<InstanceDesc> = (0..n).map(|_| place(&mut rng)).collect();
+                scene.add_instances(&added).unwrap();
+            }
+            3..=4 if live.len() > 4 => {
+                let i = live[rng.random_range(0..live.len())];
+                scene.remove_instance(i).unwrap();
+            }
+            5..=7 if !live.is_empty() => {
+                let i = live[rng.random_range(0..live.len())];
+                scene.set_transform(i, place(&mut rng).transform).unwrap();
+            }
+            _ if !live.is_empty() => {
+                let i = live[rng.random_range(0..live.len())];
+                scene.set_mask(i, rng.random_range(1..4)).unwrap();
+            }
+            _ => {}
+        }
+        let live: Vec<usize> = (0..scene.instances().len())
+            .filter(|&i| !scene.instances()[i].is_removed())
+            .collect();
+        let descs = descs_of(&scene);
+        let fresh_descs: Vec<InstanceDesc> = live.iter().map(|&i| descs[i]).collect();
+        let fresh = build_scene(&meshes, &[AccelKind::Bvh4, AccelKind::Bvh8], &fresh_descs);
+        let rays: Vec<Ray> = (0..24)
+            .map(|_| {
+                let from = crate::common::rng::in_cube(&mut rng, 9.0);
+                let aim = crate::common::rng::in_cube(&mut rng, 6.0);
+                Ray::new(from, aim - from)
+            })
+            .collect();
+        let mask = [u32::MAX, 1, 2][edit % 3];
+        let (view, fresh_view) = (
+            scene.filtered(RayFilter::on_layers(mask)),
+            fresh.filtered(RayFilter::on_layers(mask)),
+        );
+        let mut batched = vec![None; rays.len()];
+        view.cast_ray_batch_resolved_with(&rays, &mut batched, &options)
+            .unwrap();
+        let mut occluded = vec![false; rays.len()];
+        view.occluded_batch_with(&rays, &mut occluded, &options)
+            .unwrap();
+        for (k, ray) in rays.iter().enumerate() {
+            let want = fresh_view.cast_ray_resolved(ray);
+            let got = view.cast_ray_resolved(ray);
+            let renamed = got.map(|h| raybatch::scene::SceneHit {
+                instance: live.iter().position(|&i| i == h.instance as usize).unwrap() as u32,
+                ..h
+            });
+            assert_eq!(renamed, want, "edit {edit}: {ray:?}");
+            assert_eq!(batched[k], got, "edit {edit}: batched {ray:?}");
+            assert_eq!(
+                occluded[k],
+                fresh_view.occluded(ray),
+                "edit {edit}: {ray:?}"
+            );
+        }
+    }
+}
