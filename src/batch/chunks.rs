@@ -123,7 +123,12 @@ mod tests {
         assert_eq!(plan[0].len(), 1 << 17);
         assert!(plan.len() > 10 && plan.last().unwrap().len() <= 4096);
         // A frame's few thousand sightlines: one chunk per thread.
-        let lens = |n, threads| plan(n, threads, bounds).iter().map(|r| r.len()).collect();
+        let lens = |n, threads| {
+            super::plan(n, threads, bounds)
+                .iter()
+                .map(|r| r.len())
+                .collect::<Vec<_>>()
+        };
         assert_eq!(lens(2000, 2), vec![1000, 1000]);
         assert_eq!(lens(6000, 2), vec![3000, 3000]);
         assert_eq!(lens(700, 2), vec![512, 188]);

@@ -104,11 +104,14 @@ pub struct BatchOptions {
     /// Split large batches over rayon's current thread pool (on the calling thread if no thread
     /// can be started).
     pub parallel: bool,
-    /// Batches smaller than this use the single-ray path. The default, 2048, sits in the
+    /// Batches smaller than this use the single-ray path (still cut into chunks over the
+    /// threads, as [`BatchOptions::min_chunk`] says). The default, 2048, sits in the
     /// crossover the bench's batch-size sweep measured on the bunny (batched lost at 64-1k rays
     /// and won from 4k on, one thread).
     pub min_batch: usize,
-    /// Smallest chunk handed to one rayon task.
+    /// Smallest chunk handed to one rayon task (default 4,096), except in a batch too small
+    /// to give each thread that many rays: it is cut evenly over the threads, in chunks of at
+    /// least 512 rays, so that a game frame's few thousand sightlines use every core.
     pub min_chunk: usize,
     /// Largest chunk traversed as one batch; `None` (the default) leaves it to the structure
     /// (65,536 rays for the wide trees, whose chunks walk

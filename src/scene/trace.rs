@@ -13,6 +13,12 @@
 //! handed to the instance's tree as one stream in mesh space, and their range ends are copied
 //! back. Both paths trace the same mesh-space rays with the same kernels and report global ids
 //! to the same visitors, so batched answers equal per-ray answers bit for bit.
+//!
+//! Filters ([`RayFilter`]) enter at three places, the same on both paths: a ray's range is
+//! set once before the walk (open ends), the layers and the ignored instance decide which
+//! instances a ray visits (a stream tests the union of its rays' layers at top-level nodes,
+//! each ray at instances), and back faces are dropped hit by hit ([`FrontFaces`]) in the
+//! visits of rays that cull them.
 
 use std::marker::PhantomData;
 

@@ -38,9 +38,10 @@ impl Slot {
         let [ox, oy, oz] = ray.origin.to_array().map(f32::to_bits);
         let [dx, dy, dz] = ray.dir.to_array().map(f32::to_bits);
         let (tmin, tmax) = (ray.tmin.to_bits(), ray.tmax.to_bits());
-        let flags = u32::from(filter.ignore.is_some()) * IGNORES
-            | u32::from(filter.cull_back_faces) * CULLS
-            | u32::from(!filter.include_ends) * OPEN;
+        let flag = |on: bool, bit: u32| if on { bit } else { 0 };
+        let flags = flag(filter.ignore.is_some(), IGNORES)
+            | flag(filter.cull_back_faces, CULLS)
+            | flag(!filter.include_ends, OPEN);
         let ignore = filter.ignore.unwrap_or(0);
         let words = [
             ox,

@@ -61,7 +61,7 @@ pub fn scene_brute_force_filtered(
                     .dir
                     .to_array()
                     .map(|x| if x.abs() < f32::MIN_POSITIVE { 0.0 } else { x });
-                let dir = glam::DVec3::from(Vec3::from(dir).as_dvec3());
+                let dir = Vec3::from(dir).as_dvec3();
                 brute_force::for_each_hit(mesh, &local, kernel, |h| {
                     let [a, b, c] = mesh.triangle(h.triangle).map(|v| v.as_dvec3());
                     let along = (b - a).cross(c - a).dot(dir) > 0.0;
