@@ -4,15 +4,17 @@
 //! One word (`open`) holds the open buffer's parity in its top bit and the requests taken in
 //! the open frame in the other 63: a single atomic step both reserves slots and says which
 //! buffer they are in, and a flush closes the frame with a single swap. A submitter writes its
-//! ray's floats and filter with relaxed stores into slots no one else was given, then counts them as
-//! written (release); the flush waits until the closed buffer's written count reaches the
-//! number of slots reserved before the swap (acquire), so it reads every ray whole.
+//! ray's floats and filter with relaxed stores into slots no one else was given, then its
+//! flags word with the `WRITTEN` bit (release); the flush waits on each slot reserved before
+//! the swap until that bit is set (acquire), so it reads every request whole, and clears it.
+//! A submit thus touches one shared word, the reservation: a shared count of written slots
+//! cost every submitter a second contended step.
 //!
 //! A buffer is reused two frames later. Its next frame opens at the next flush's swap, which
-//! comes after this flush has read it (flushes hold one lock in turn), so a submitter never
-//! writes into a buffer being read.
+//! comes after this flush has read and cleared it (flushes hold one lock in turn), so a
+//! submitter never writes into a slot being read, nor sees its bit from two frames ago.
 
-use std::sync::atomic::{AtomicU32, AtomicU64, AtomicUsize, Ordering};
+use std::sync::atomic::{AtomicU32, AtomicU64, Ordering};
 
 use crossbeam::utils::CachePadded;
 use glam::Vec3;
@@ -28,10 +30,11 @@ const PARITY: u64 = 1 << 63;
 #[derive(Default)]
 struct Slot([AtomicU32; 11]);
 
-/// Flag bits of a stored filter.
+/// Flag bits of a stored filter, and the bit that says the slot is completely stored.
 const IGNORES: u32 = 1;
 const CULLS: u32 = 2;
 const OPEN: u32 = 4;
+const WRITTEN: u32 = 8;
 
 impl Slot {
     fn store(&self, (ray, filter): &(Ray, RayFilter)) {
@@ -43,22 +46,22 @@ impl Slot {
             | flag(filter.cull_back_faces, CULLS)
             | flag(!filter.include_ends, OPEN);
         let ignore = filter.ignore.unwrap_or(0);
-        let words = [
-            ox,
-            oy,
-            oz,
-            dx,
-            dy,
-            dz,
-            tmin,
-            tmax,
-            filter.layers,
-            ignore,
-            flags,
-        ];
+        let words = [ox, oy, oz, dx, dy, dz, tmin, tmax, filter.layers, ignore];
         for (cell, word) in self.0.iter().zip(words) {
             cell.store(word, Ordering::Relaxed);
         }
+        // Release: whoever sees the bit sees the words above.
+        self.0[10].store(flags | WRITTEN, Ordering::Release);
+    }
+
+    /// Waits until the slot is completely stored, reads it and clears it for its next use.
+    fn take(&self) -> (Ray, RayFilter) {
+        while self.0[10].load(Ordering::Acquire) & WRITTEN == 0 {
+            std::thread::yield_now();
+        }
+        let request = self.load();
+        self.0[10].store(0, Ordering::Relaxed);
+        request
     }
 
     fn load(&self) -> (Ray, RayFilter) {
@@ -80,8 +83,6 @@ impl Slot {
 /// One frame's requests.
 struct Buffer {
     slots: Box<[Slot]>,
-    /// Slots whose ray is completely stored.
-    written: CachePadded<AtomicUsize>,
 }
 
 /// Slots reserved by one submit: `count` of them from `first`, in frame `frame`.
@@ -105,7 +106,6 @@ impl Frames {
     pub fn new(capacity: usize) -> Self {
         let buffer = || Buffer {
             slots: (0..capacity).map(|_| Slot::default()).collect(),
-            written: CachePadded::new(AtomicUsize::new(0)),
         };
         Self {
             buffers: [buffer(), buffer()],
@@ -179,7 +179,7 @@ impl Frames {
         }
     }
 
-    /// Stores `requests` in the reserved slots and counts them as written.
+    /// Stores `requests` in the reserved slots, each marked written when whole.
     pub fn write(
         &self,
         reservation: &Reservation,
@@ -190,9 +190,6 @@ impl Frames {
         for (slot, request) in slots.iter().zip(requests) {
             slot.store(&request);
         }
-        buffer
-            .written
-            .fetch_add(reservation.count, Ordering::Release);
     }
 
     /// Closes the open frame, opens the next and appends the closed frame's rays and filters
@@ -207,14 +204,10 @@ impl Frames {
         let next = if frame & 1 == 0 { PARITY } else { 0 };
         let count = self.taken_in(self.open.swap(next, Ordering::AcqRel));
         let buffer = &self.buffers[(frame & 1) as usize];
-        while buffer.written.load(Ordering::Acquire) < count {
-            std::thread::yield_now();
-        }
-        for (ray, filter) in buffer.slots[..count].iter().map(Slot::load) {
+        for (ray, filter) in buffer.slots[..count].iter().map(Slot::take) {
             rays.push(ray);
             filters.push(filter);
         }
-        buffer.written.store(0, Ordering::Relaxed);
         frame
     }
 }
