@@ -222,25 +222,21 @@ fn for_each_prepared_chunk<A: Accel, T: Send>(
     });
 }
 
-/// Runs `f(ray, out)` on each ray and its output, one ray at a time, the batch cut into
+/// Runs `f(i, ray, out)` on each ray `rays[i]` and its output, one ray at a time, the batch cut into
 /// chunks over the threads as a streamed batch would be: the path of batches too small for a
 /// stream (or with a kernel the streams do not run).
 pub(crate) fn each_ray<A: Accel, T: Send>(
     accel: &A,
     (rays, out): (&[Ray], &mut [T]),
     options: &BatchOptions,
-    f: impl Fn(&Ray, &mut T) + Sync,
+    f: impl Fn(usize, &Ray, &mut T) + Sync,
 ) {
-    for_each_chunk(
-        rays,
-        out,
-        (options, accel.max_chunk(rays)),
-        |_, rays, out| {
-            for (ray, out) in rays.iter().zip(out) {
-                f(ray, out);
-            }
-        },
-    );
+    let largest = accel.max_chunk(rays);
+    for_each_chunk(rays, out, (options, largest), |offset, rays, out| {
+        for (k, (ray, out)) in rays.iter().zip(out).enumerate() {
+            f(offset + k, ray, out);
+        }
+    });
 }
 
 /// Writes each ray's closest hit from the chunk's answers by slot, in position order
@@ -314,7 +310,7 @@ pub(crate) fn cast_ray_batch_with<A: Accel>(
 ) -> Result<(), BatchError> {
     check_lengths(rays.len(), hits.len())?;
     if ray_by_ray(rays, options) {
-        each_ray(accel, (rays, hits), options, |ray, hit| {
+        each_ray(accel, (rays, hits), options, |_, ray, hit| {
             *hit = single::cast_ray_with(accel, ray, options.kernel)
         });
         return Ok(());
@@ -359,7 +355,7 @@ pub(crate) fn occluded_batch_with<A: Accel>(
 ) -> Result<(), BatchError> {
     check_lengths(rays.len(), occluded.len())?;
     if ray_by_ray(rays, options) {
-        each_ray(accel, (rays, occluded), options, |ray, out| {
+        each_ray(accel, (rays, occluded), options, |_, ray, out| {
             *out = single::occluded_with(accel, ray, options.kernel)
         });
         return Ok(());
@@ -394,17 +390,9 @@ pub(crate) fn for_each_hit_batch_with<A: Accel>(
     // No output slice: chunks are matched with zero-sized slots.
     let mut slots = vec![(); rays.len()];
     if ray_by_ray(rays, options) {
-        for_each_chunk(
-            rays,
-            &mut slots,
-            (options, accel.max_chunk(rays)),
-            |offset, rays, _| {
-                for (k, ray) in rays.iter().enumerate() {
-                    let i = offset + k;
-                    single::for_each_hit_with(accel, ray, options.kernel, &mut |h| f(i, h));
-                }
-            },
-        );
+        each_ray(accel, (rays, &mut slots), options, |i, ray, _| {
+            single::for_each_hit_with(accel, ray, options.kernel, &mut |h| f(i, h))
+        });
         return;
     }
     for_each_prepared_chunk(

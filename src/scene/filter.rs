@@ -25,7 +25,6 @@
 use glam::{DVec3, Vec3};
 
 use crate::batch::BatchOptions;
-use crate::batch::chunks::for_each_chunk;
 use crate::geom::{PreparedRay, Ray};
 use crate::hit::Hit;
 use crate::query::RayQueries;
@@ -195,11 +194,8 @@ impl<'a> FilteredBatch<'a> {
     ) -> Result<(), BatchError> {
         self.check(rays, hits.len())?;
         if batched::ray_by_ray(rays, options) {
-            for_each_chunk(rays, hits, (options, rays.len()), |offset, rays, hits| {
-                for (k, (ray, hit)) in rays.iter().zip(hits).enumerate() {
-                    let view = self.scene.filtered(self.filters[offset + k]);
-                    *hit = view.cast_ray_with(ray, options.kernel);
-                }
+            batched::each_ray(self, (rays, hits), options, |i, ray, hit| {
+                *hit = self.filtered(i).cast_ray_with(ray, options.kernel)
             });
             return Ok(());
         }
@@ -222,20 +218,17 @@ impl<'a> FilteredBatch<'a> {
     ) -> Result<(), BatchError> {
         self.check(rays, occluded.len())?;
         if batched::ray_by_ray(rays, options) {
-            for_each_chunk(
-                rays,
-                occluded,
-                (options, rays.len()),
-                |offset, rays, out| {
-                    for (k, (ray, out)) in rays.iter().zip(out).enumerate() {
-                        let view = self.scene.filtered(self.filters[offset + k]);
-                        *out = view.occluded_with(ray, options.kernel);
-                    }
-                },
-            );
+            batched::each_ray(self, (rays, occluded), options, |i, ray, out| {
+                *out = self.filtered(i).occluded_with(ray, options.kernel)
+            });
             return Ok(());
         }
         batched::occluded_batch_with(self, rays, occluded, options)
+    }
+
+    /// The scene through ray `i`'s filter.
+    pub(crate) fn filtered(&self, i: usize) -> SceneView<'a> {
+        self.scene.filtered(self.filters[i])
     }
 
     /// A filter for every ray and an output for every ray.

@@ -99,11 +99,8 @@ impl SceneView<'_> {
         out: &mut [Option<SceneHit>],
         options: &BatchOptions,
     ) -> Result<(), BatchError> {
-        check_lengths(rays.len(), out.len())?;
-        let mut hits = vec![None; rays.len()];
-        self.cast_ray_batch_with(rays, &mut hits, options)?;
-        self.scene.resolve_batch(rays, &hits, out, options);
-        Ok(())
+        let cast = |hits: &mut [Option<Hit>]| self.cast_ray_batch_with(rays, hits, options);
+        self.scene.resolve_batch(rays, out, options, cast)
     }
 }
 
@@ -124,28 +121,31 @@ impl FilteredBatch<'_> {
         out: &mut [Option<SceneHit>],
         options: &BatchOptions,
     ) -> Result<(), BatchError> {
-        check_lengths(rays.len(), out.len())?;
-        let mut hits = vec![None; rays.len()];
-        self.cast_ray_batch_with(rays, &mut hits, options)?;
-        self.scene.resolve_batch(rays, &hits, out, options);
-        Ok(())
+        let cast = |hits: &mut [Option<Hit>]| self.cast_ray_batch_with(rays, hits, options);
+        self.scene.resolve_batch(rays, out, options, cast)
     }
 }
 
 impl Scene {
-    /// `out[i]` = `hits[i]` (on `rays[i]`) resolved, in chunks over the threads.
+    /// `out[i]`: the closest hit of `rays[i]` as `cast` answers them in one batched call,
+    /// resolved in chunks over the threads.
     fn resolve_batch(
         &self,
         rays: &[Ray],
-        hits: &[Option<Hit>],
         out: &mut [Option<SceneHit>],
         options: &BatchOptions,
-    ) {
+        cast: impl FnOnce(&mut [Option<Hit>]) -> Result<(), BatchError>,
+    ) -> Result<(), BatchError> {
+        check_lengths(rays.len(), out.len())?;
+        let mut hits = vec![None; rays.len()];
+        cast(&mut hits)?;
+        let hits = &hits;
         for_each_chunk(rays, out, (options, rays.len()), |offset, rays, out| {
             for (k, (ray, out)) in rays.iter().zip(out).enumerate() {
                 *out = hits[offset + k].and_then(|hit| self.resolve(ray, hit));
             }
         });
+        Ok(())
     }
 }
 

@@ -88,27 +88,20 @@ impl<K: TriangleTest> RenamedTask for InstanceStream<'_, '_, K> {
     }
 }
 
-/// The filters of a query: one for every ray, or one per ray of the batch, by batch index
-/// (as the caller gives them) or by ray id in the stream (as the walk reads them).
+/// The filters of a query: one for every ray, or one per ray by its id in the stream (a
+/// batch's per-ray filters, copied by id once per stream: [`FilteredBatch`]'s `trace_stream`).
 #[derive(Clone, Copy)]
 enum Filters<'a> {
     Same(RayFilter),
-    PerRay(&'a [RayFilter]),
     ById(&'a [RayFilter]),
 }
 
 impl Filters<'_> {
-    /// The filter of ray `i` of `stream`, a stream the batched queries made.
+    /// The filter of ray `i` of `stream`.
     #[inline(always)]
     fn of(&self, stream: &RayStream<'_>, i: usize) -> RayFilter {
         match self {
             Filters::Same(filter) => *filter,
-            Filters::PerRay(filters) => {
-                let index = stream
-                    .batch_index(i)
-                    .expect("a stream of the batch's own rays");
-                filters[index]
-            }
             Filters::ById(filters) => filters[stream.id(i) as usize],
         }
     }
@@ -188,27 +181,19 @@ fn trace_instance<K: TriangleTest, V: Visitor>(
         return tmax;
     };
     let mesh = &scene.meshes[instance.mesh()];
-    if cull {
-        // The mesh's walk sees the ray as number 0; the filter renames it back.
-        let outer = [(0, id)];
-        let faces = [Some(local.dir)];
-        let task = InstanceRay::<K::AnyAxis> {
-            mesh,
-            ray: &local,
-            id: 0,
-            scratch: &mut scratch.inner,
-            kernel: PhantomData,
-        };
-        let mut front = FrontFaces::new(mesh, instance.first_id, (&outer, &faces), visitor);
-        return with_renamed(Ids::Offset(0), None, &mut front, task);
-    }
+    // Culling, the mesh's walk sees the ray as number 0 and the filter renames it back.
     let task = InstanceRay::<K::AnyAxis> {
         mesh,
         ray: &local,
-        id,
+        id: if cull { 0 } else { id },
         scratch: &mut scratch.inner,
         kernel: PhantomData,
     };
+    if cull {
+        let (outer, faces) = ([(0, id)], [Some(local.dir)]);
+        let mut front = FrontFaces::new(mesh, instance.first_id, (&outer, &faces), visitor);
+        return with_renamed(Ids::Offset(0), None, &mut front, task);
+    }
     with_renamed(Ids::Offset(instance.first_id), None, visitor, task)
 }
 
@@ -264,8 +249,7 @@ impl<V: Visitor> Visitor for FrontFaces<'_, V> {
     }
 }
 
-/// A stream through the scene (see the module docs). Filters by batch index are first
-/// copied by ray id, which the walk reads with one lookup less.
+/// A stream through the scene (see the module docs).
 fn trace_stream<K: TriangleTest, V: Visitor>(
     scene: &Scene,
     filters: Filters<'_>,
@@ -273,33 +257,10 @@ fn trace_stream<K: TriangleTest, V: Visitor>(
     scratch: &mut SceneScratch,
     visitor: &mut V,
 ) {
-    if scene.top.nodes.is_empty() || stream.is_empty() {
+    let nodes = &scene.top.nodes;
+    if nodes.is_empty() || stream.is_empty() {
         return;
     }
-    let Filters::PerRay(_) = filters else {
-        return walk_stream::<K, V>(scene, filters, stream, scratch, visitor);
-    };
-    let mut by_id = std::mem::take(&mut scratch.filters);
-    for i in 0..stream.len() {
-        let id = stream.id(i) as usize;
-        if by_id.len() <= id {
-            by_id.resize(id + 1, RayFilter::ALL);
-        }
-        by_id[id] = filters.of(stream, i);
-    }
-    walk_stream::<K, V>(scene, Filters::ById(&by_id), stream, scratch, visitor);
-    scratch.filters = by_id;
-}
-
-/// [`trace_stream`] once its filters are read.
-fn walk_stream<K: TriangleTest, V: Visitor>(
-    scene: &Scene,
-    filters: Filters<'_>,
-    stream: &mut RayStream<'_>,
-    scratch: &mut SceneScratch,
-    visitor: &mut V,
-) {
-    let nodes = &scene.top.nodes;
     let layers = prepare_ranges(filters, stream);
     let pad = stream_pad(stream);
     let octant_mask = stream.octant_mask();
@@ -334,7 +295,7 @@ fn walk_stream<K: TriangleTest, V: Visitor>(
                     Filters::Same(filter) if filter.admits(index, instance) => {
                         stream_instance::<K, V>(scene, visit, stream, filters, scratch, visitor)
                     }
-                    Filters::PerRay(_) | Filters::ById(_) if seen(instance.mask, layers) => {
+                    Filters::ById(_) if seen(instance.mask, layers) => {
                         stream_instance::<K, V>(scene, visit, stream, filters, scratch, visitor)
                     }
                     _ => {}
@@ -398,19 +359,17 @@ fn stream_instance<K: TriangleTest, V: Visitor>(
     visitor: &mut V,
 ) {
     let mesh = &scene.meshes[instance.mesh()];
-    let as_is = match filters {
-        Filters::Same(filter) => !filter.cull_back_faces,
-        // Most rays of a batch take part in most instances they reach: one pass may spare
-        // the copy.
-        _ => {
-            instance.transform.is_identity()
-                && (0..active).all(|i| {
-                    let filter = filters.of(stream, i);
-                    filter.admits(index, instance) && !filter.cull_back_faces
-                })
-        }
-    };
-    if as_is && instance.transform.is_identity() {
+    // Most rays of a batch take part in most instances they reach: one pass may spare the
+    // copy.
+    let as_is = instance.transform.is_identity()
+        && match filters {
+            Filters::Same(filter) => !filter.cull_back_faces,
+            Filters::ById(_) => (0..active).all(|i| {
+                let filter = filters.of(stream, i);
+                filter.admits(index, instance) && !filter.cull_back_faces
+            }),
+        };
+    if as_is {
         // Mesh space is world space: the stream's own rays go down the mesh's tree as they
         // are (the tree only reorders them within the prefix, which keeps the set).
         let mut local = stream.prefix(active);
@@ -519,8 +478,8 @@ impl Accel for FilteredBatch<'_> {
         scratch: &mut Self::Scratch,
         visitor: &mut V,
     ) -> f32 {
-        let view = self.scene.filtered(self.filters[id as usize]);
-        view.trace::<K, V>(ray, id, scratch, visitor)
+        self.filtered(id as usize)
+            .trace::<K, V>(ray, id, scratch, visitor)
     }
 
     fn trace_stream<K: TriangleTest, V: Visitor>(
@@ -529,8 +488,22 @@ impl Accel for FilteredBatch<'_> {
         scratch: &mut Self::Scratch,
         visitor: &mut V,
     ) {
-        let filters = Filters::PerRay(self.filters);
-        trace_stream::<K, V>(self.scene, filters, stream, scratch, visitor)
+        // The filters by the rays' ids, which the walk reads with one lookup less than by
+        // batch index.
+        let mut by_id = std::mem::take(&mut scratch.filters);
+        for i in 0..stream.len() {
+            let id = stream.id(i) as usize;
+            let index = stream
+                .batch_index(i)
+                .expect("a stream of the batch's own rays");
+            if by_id.len() <= id {
+                by_id.resize(id + 1, RayFilter::ALL);
+            }
+            by_id[id] = self.filters[index];
+        }
+        let filters = Filters::ById(&by_id);
+        trace_stream::<K, V>(self.scene, filters, stream, scratch, visitor);
+        scratch.filters = by_id;
     }
 }
 
