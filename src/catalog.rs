@@ -40,7 +40,7 @@ pub trait KindTask {
 }
 
 macro_rules! structures {
-    ($($(#[$doc:meta])* $kind:ident($tree:ty) = $name:literal: $summary:literal;)+) => {
+    ($($(#[$doc:meta])* $kind:ident($tree:ty) = $code:literal, $name:literal: $summary:literal;)+) => {
         /// A kind of acceleration structure (every kind answers every query exactly alike;
         /// [`AccelKind::for_mesh`] picks one, docs/benchmarks.md compares them).
         #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -65,6 +65,35 @@ macro_rules! structures {
                     $(AccelKind::$kind => $summary,)+
                 }
             }
+
+            /// The kind's number in cooked files (`crate::cook`): fixed forever, whatever
+            /// the list's order.
+            pub(crate) fn code(self) -> u32 {
+                match self {
+                    $(AccelKind::$kind => $code,)+
+                }
+            }
+
+            /// The kind numbered `code` in cooked files.
+            pub(crate) fn from_code(code: u32) -> Option<Self> {
+                match code {
+                    $($code => Some(AccelKind::$kind),)+
+                    _ => None,
+                }
+            }
+        }
+
+        /// Reads a cooked body of kind `kind` over `mesh` (`crate::cook`).
+        fn read_tree(
+            kind: AccelKind,
+            mesh: Arc<Mesh>,
+            body: &mut crate::cook::Reader<'_>,
+        ) -> Result<Tree, crate::cook::CookError> {
+            Ok(match kind {
+                $(AccelKind::$kind => {
+                    Tree::$kind(<$tree as crate::cook::Cook>::read_body(kind, mesh, body)?)
+                })+
+            })
         }
 
         /// The concrete trees.
@@ -90,30 +119,30 @@ macro_rules! structures {
 
 structures! {
     /// [`AabbTree`]: binary SAH tree, 32-byte nodes; the only kind a scene can refit.
-    Aabb(AabbTree) = "aabb": "binary SAH tree, 32-byte nodes";
+    Aabb(AabbTree) = 1, "aabb": "binary SAH tree, 32-byte nodes";
     /// [`QuantizedAabbTree`]: the same tree with 16-byte quantized nodes.
-    Quantized(QuantizedAabbTree) = "quantized": "binary SAH tree, 16-byte quantized nodes";
+    Quantized(QuantizedAabbTree) = 2, "quantized": "binary SAH tree, 16-byte quantized nodes";
     /// [`WideTree`]: the same tree collapsed to 4 children per node, SIMD box tests.
-    Bvh4(WideTree) = "bvh4": "4-wide tree collapsed from the SAH tree, SIMD box tests";
+    Bvh4(WideTree) = 3, "bvh4": "4-wide tree collapsed from the SAH tree, SIMD box tests";
     /// [`WideTree8`]: the same tree collapsed to 8 children per node (AVX2 box tests where
     /// the CPU has them). The default ([`AccelKind::DEFAULT`]).
-    Bvh8(WideTree8) = "bvh8": "8-wide tree collapsed from the SAH tree, SIMD box tests";
+    Bvh8(WideTree8) = 4, "bvh8": "8-wide tree collapsed from the SAH tree, SIMD box tests";
     /// [`QuantizedWideTree`]: the 4-wide tree with 8-bit child boxes, one 64-byte line a node.
-    Bvh4q(QuantizedWideTree) = "bvh4q": "4-wide tree with 8-bit child boxes, 64-byte nodes";
+    Bvh4q(QuantizedWideTree) = 5, "bvh4q": "4-wide tree with 8-bit child boxes, 64-byte nodes";
     /// [`QuantizedWideTree8`]: the 8-wide tree with 8-bit child boxes, two 64-byte lines a
     /// node; beyond the caches its leaves are blocks read in one trip to memory
     /// ([`crate::LeafCopy::Blocks`]), and [`AccelKind::for_mesh`] picks it there.
-    Bvh8q(QuantizedWideTree8) = "bvh8q": "8-wide tree with 8-bit child boxes, 128-byte nodes";
+    Bvh8q(QuantizedWideTree8) = 6, "bvh8q": "8-wide tree with 8-bit child boxes, 128-byte nodes";
     /// [`ZeroByteTree`]: no memory beside the mesh, boxes recomputed, per-thread box cache.
-    Zbt(Permuted<ZeroByteTree>) = "zbt": "zero-byte tree: no memory beside the mesh, box cache";
+    Zbt(Permuted<ZeroByteTree>) = 7, "zbt": "zero-byte tree: no memory beside the mesh, box cache";
     /// [`HybridTree`]: stored boxes down to chunks of 32 triangles, zero-byte trees below.
-    Hybrid(Permuted<HybridTree>) = "hybrid": "AABB tree over zero-byte trees of 32-triangle chunks";
+    Hybrid(Permuted<HybridTree>) = 8, "hybrid": "AABB tree over zero-byte trees of 32-triangle chunks";
     /// [`UniformGrid`]: cells over the bounds walked by an exact 3D-DDA, mailboxed.
-    Grid(UniformGrid) = "grid": "uniform grid, exact 3D-DDA walk, mailboxes";
+    Grid(UniformGrid) = 9, "grid": "uniform grid, exact 3D-DDA walk, mailboxes";
     /// [`KdTree`]: SAH kd-tree, 8-byte nodes, front-to-back walk, mailboxed.
-    Kd(KdTree) = "kd": "SAH kd-tree, 8-byte nodes, front-to-back walk, mailboxes";
+    Kd(KdTree) = 10, "kd": "SAH kd-tree, 8-byte nodes, front-to-back walk, mailboxes";
     /// [`SpatialHash`]: the grid's cells and walk, only non-empty cells stored, hashed.
-    Hash(SpatialHash) = "hash": "spatial hash: the grid's walk, only non-empty cells stored";
+    Hash(SpatialHash) = 11, "hash": "spatial hash: the grid's walk, only non-empty cells stored";
 }
 
 impl AccelKind {
@@ -285,6 +314,25 @@ impl AnyAccel {
     /// The structure's kind.
     pub fn kind(&self) -> AccelKind {
         each_tree!(&self.tree, (kind, _tree) => kind)
+    }
+
+    /// Writes the structure's mesh and body to a cooked payload (`crate::cook`).
+    pub(crate) fn write_cooked(
+        &self,
+        out: &mut crate::cook::Writer,
+    ) -> Result<(), crate::cook::CookError> {
+        each_tree!(&self.tree, (kind, tree) => crate::cook::Cook::write(tree, kind, out))
+    }
+
+    /// Reads a structure of kind `kind` over `mesh` from its cooked body.
+    pub(crate) fn read_cooked(
+        kind: AccelKind,
+        mesh: Arc<Mesh>,
+        body: &mut crate::cook::Reader<'_>,
+    ) -> Result<Self, crate::cook::CookError> {
+        let bounds = mesh.bounds();
+        let tree = read_tree(kind, mesh, body)?;
+        Ok(AnyAccel { tree, bounds })
     }
 }
 

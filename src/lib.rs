@@ -42,6 +42,7 @@ mod accel;
 mod batch;
 mod bvh;
 mod catalog;
+pub mod cook;
 mod geom;
 mod grid;
 mod hit;
@@ -71,6 +72,7 @@ pub use bvh::{
     QuantizedVertexTree,
 };
 pub use catalog::{AccelKind, AnyAccel, KindTask, Structure};
+pub use cook::CookError;
 pub use geom::{Aabb, Kernel, Ray, RayError};
 pub use glam;
 pub use grid::{GridOptions, SpatialHash, UniformGrid};

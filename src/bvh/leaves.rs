@@ -202,6 +202,15 @@ impl LeafTriangles {
         order.iter().map(|&id| mesh.triangle(id)).collect()
     }
 
+    /// The copy the slots hold (never [`LeafCopy::Auto`] or [`LeafCopy::Blocks`]).
+    pub(crate) fn copy(&self) -> LeafCopy {
+        match self.slots {
+            Slots::Ids(_) => LeafCopy::Nothing,
+            Slots::PackedIndicesAndId(_) => LeafCopy::Indices,
+            Slots::IdsAndCorners(..) => LeafCopy::Corners,
+        }
+    }
+
     /// The mesh the slots refer to.
     pub(crate) fn mesh(&self) -> &Arc<Mesh> {
         &self.mesh

@@ -21,6 +21,7 @@
 //! - [`quantized_vertices`]: [`QuantizedVertexTree`], the same over a quantized-vertex mesh.
 
 pub mod build;
+mod cook;
 pub(crate) mod leaves;
 pub mod nodes;
 pub mod ordering;

@@ -9,7 +9,7 @@ use std::sync::Arc;
 
 use glam::Vec3;
 
-use super::build::{BuildError, BuildOptions, build};
+use super::build::{BuildError, BuildOptions, BuiltTree, build};
 use super::leaves::{LeafCopy, LeafTriangles};
 use super::nodes::{FullNodes, NodeFormat, QuantizedNodes};
 use super::{Bvh, Node};
@@ -36,16 +36,23 @@ impl<N: NodeFormat> AabbTree<N> {
         let mesh = mesh.into();
         let built = build(&mesh, options)?;
         let nodes = N::pack(&built)?;
-        Ok(Self {
+        Ok(Self::from_parts(nodes, mesh, built, *options))
+    }
+
+    /// The tree of `nodes`, packed from `built` over `mesh` with `options`.
+    pub(crate) fn from_parts(
+        nodes: N,
+        mesh: Arc<Mesh>,
+        built: BuiltTree,
+        options: BuildOptions,
+    ) -> Self {
+        let copy = options.leaf_copy.or(LeafCopy::Nothing);
+        Self {
             nodes,
-            triangles: LeafTriangles::new(
-                mesh,
-                built.triangle_order,
-                options.leaf_copy.or(LeafCopy::Nothing),
-            ),
+            triangles: LeafTriangles::new(mesh, built.triangle_order, copy),
             depth: built.depth,
-            options: *options,
-        })
+            options,
+        }
     }
 
     /// The options the tree was built with.

@@ -103,6 +103,28 @@ impl Rigid {
         Ok(Self::with_parts(self.rotation, scale, self.translation))
     }
 
+    /// The transform a cooked file holds: `rotation` as this type keeps it (unit length up to
+    /// rounding, so not renormalised again: the transform is the saved one bit for bit),
+    /// `scale` and `translation`, each checked as [`Rigid::new`] and [`Rigid::with_scale`]
+    /// check them, the rotation within a millionth of unit length.
+    pub(crate) fn from_cooked(
+        rotation: Quat,
+        scale: f32,
+        translation: Vec3,
+    ) -> Result<Self, SceneError> {
+        if !rotation.is_finite() || !translation.is_finite() {
+            return Err(SceneError::NonFiniteTransform);
+        }
+        let norm2 = rotation.length_squared();
+        if (norm2 - 1.0).abs() > 1e-6 {
+            return Err(SceneError::NonRigidTransform { norm2 });
+        }
+        if !Self::SCALES.contains(&scale) {
+            return Err(SceneError::BadScale { scale });
+        }
+        Ok(Self::with_parts(rotation, scale, translation))
+    }
+
     fn with_parts(rotation: Quat, scale: f32, translation: Vec3) -> Self {
         let turn = Mat3::from_quat(rotation);
         Self {

@@ -22,6 +22,7 @@
 //! A leaf word ([`leaf_word`]) then holds the block's first word and the triangle count in
 //! place of the first slot; `WideBvh::build` rewrites the collapsed tree's leaf words.
 
+use std::collections::HashMap;
 use std::sync::Arc;
 
 use glam::Vec3;
@@ -72,6 +73,24 @@ impl LeafBlocks {
         words.shrink_to_fit();
         let len = order.len();
         Some((Self { mesh, words, len }, block_words))
+    }
+
+    /// The slot order the blocks of `leaf_words` (block words) were made from, and the first
+    /// slot of each block (by its first word): blocks are laid out in slot order, so each
+    /// leaf's slots follow the slots of the blocks before it.
+    pub(crate) fn slot_ranges(
+        &self,
+        leaf_words: impl Iterator<Item = u32>,
+    ) -> (Vec<u32>, HashMap<u32, u32>) {
+        let mut blocks: Vec<(u32, u32)> = leaf_words.map(leaf_word::unpack).collect();
+        blocks.sort_unstable();
+        let mut order = Vec::with_capacity(self.len);
+        let mut first_slots = HashMap::with_capacity(blocks.len());
+        for (block, count) in blocks {
+            first_slots.insert(block, order.len() as u32);
+            order.extend_from_slice(&self.words[block as usize..(block + count) as usize]);
+        }
+        (order, first_slots)
     }
 
     /// The mesh the ids refer to.

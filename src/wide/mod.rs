@@ -37,6 +37,7 @@
 
 pub(crate) mod blocks;
 pub(crate) mod collapse;
+mod cook;
 pub(crate) mod dispatch;
 pub(crate) mod interleaved;
 pub(crate) mod kind;
@@ -140,6 +141,11 @@ impl<N: NodeKind> WideBvh<N> {
             built.triangle_order,
             options.leaf_copy,
         );
+        Ok(Self::from_parts(nodes, root, root_bounds, triangles))
+    }
+
+    /// The tree of `nodes`, `root` (with box `root_bounds`) and leaves `triangles`.
+    fn from_parts(nodes: Vec<N>, root: u32, root_bounds: Aabb, triangles: WideLeaves) -> Self {
         let mut tree = Self {
             nodes,
             root,
@@ -153,7 +159,7 @@ impl<N: NodeKind> WideBvh<N> {
             crate::huge_pages::advise(&tree.nodes);
             tree.triangles.advise_huge_pages();
         }
-        Ok(tree)
+        tree
     }
 
     /// The mesh the tree was built over; triangle ids refer to it.
