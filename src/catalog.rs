@@ -316,6 +316,12 @@ impl AnyAccel {
         each_tree!(&self.tree, (kind, _tree) => kind)
     }
 
+    /// The mesh whose triangle ids the structure answers in: `None` for the zero-byte trees
+    /// (`zbt`, `hybrid`), which keep it reordered (their hits are renamed on the way out).
+    pub fn mesh(&self) -> Option<&Mesh> {
+        each_tree!(&self.tree, (_kind, tree) => crate::cook::Cook::own_mesh(tree))
+    }
+
     /// Writes the structure's mesh and body to a cooked payload (`crate::cook`).
     pub(crate) fn write_cooked(
         &self,

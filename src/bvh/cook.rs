@@ -11,7 +11,7 @@
 
 use std::sync::Arc;
 
-use super::build::{BuiltNode, BuiltTree, FIRST_PAIR};
+use super::build::{BuiltNode, BuiltTree, FIRST_PAIR, PARALLEL_THRESHOLD};
 use super::nodes::NodeFormat;
 use super::{AabbTree, BuildOptions, Bvh, ChildOrdering, LeafCopy, MAX_LEAF_SIZE};
 use crate::catalog::AccelKind;
@@ -22,7 +22,7 @@ use crate::geom::Aabb;
 use crate::mesh::Mesh;
 
 impl<N: NodeFormat> Cook for AabbTree<N> {
-    fn cooked_mesh(&self) -> Option<&Mesh> {
+    fn own_mesh(&self) -> Option<&Mesh> {
         Some(self.mesh())
     }
 
@@ -102,20 +102,21 @@ pub(crate) fn read_options(body: &mut Reader) -> Result<BuildOptions, CookError>
 /// The nodes of a body, boxes still empty.
 fn read_nodes(body: &mut Reader) -> Result<Vec<BuiltNode>, CookError> {
     let count = body.count(16)?;
-    (0..count)
-        .map(|_| {
-            let [first_child, first, count, order] =
-                [body.u32()?, body.u32()?, body.u32()?, body.u32()?];
-            let order = u8::try_from(order).map_err(|_| CookError::Corrupt("order byte"))?;
-            Ok(BuiltNode {
-                bounds: Aabb::EMPTY,
-                first_child,
-                first,
-                count,
-                order,
-            })
-        })
-        .collect()
+    let words = body.words(4 * count)?;
+    if words
+        .chunks_exact(4)
+        .any(|node| node[3] > u32::from(u8::MAX))
+    {
+        return Err(CookError::Corrupt("an order byte above 255"));
+    }
+    let node = |words: &[u32]| BuiltNode {
+        bounds: Aabb::EMPTY,
+        first_child: words[0],
+        first: words[1],
+        count: words[2],
+        order: words[3] as u8,
+    };
+    Ok(words.chunks_exact(4).map(node).collect())
 }
 
 /// Checks the nodes' shape against `slots` slots (see `crate::cook::check`); returns the depth.
@@ -157,14 +158,17 @@ fn check_shape(nodes: &[BuiltNode], slots: usize) -> Result<usize, CookError> {
     Ok(depths.max())
 }
 
-/// The box of every node, from the mesh: leaves' from their triangles, then internal nodes'
-/// from their children's (which come after them).
+/// The box of every node, from the mesh: leaves' from their triangles (on rayon's pool for
+/// large trees), then internal nodes' from their children's (which come after them).
 fn fill_boxes(nodes: &mut [BuiltNode], mesh: &Mesh, order: &[u32]) {
+    let parallel = nodes.len() > PARALLEL_THRESHOLD;
+    let leaf_boxes = crate::parallel::map(parallel, &*nodes, |node| match node.first_child {
+        0 if node.count > 0 => slots_box(mesh, order, node.first, node.count),
+        _ => Aabb::EMPTY,
+    });
     for index in (0..nodes.len()).rev() {
-        let node = nodes[index];
-        nodes[index].bounds = match node.first_child {
-            0 if node.count == 0 => Aabb::EMPTY,
-            0 => slots_box(mesh, order, node.first, node.count),
+        nodes[index].bounds = match nodes[index].first_child {
+            0 => leaf_boxes[index],
             c => nodes[c as usize].bounds.union(nodes[c as usize + 1].bounds),
         };
     }

@@ -111,7 +111,12 @@ impl<'a> Reader<'a> {
     /// Words written by [`Writer::u32s`].
     pub(crate) fn u32s(&mut self) -> Result<Vec<u32>, CookError> {
         let count = self.count(4)?;
-        let words = self.take(4 * count)?.chunks_exact(4);
+        self.words(count)
+    }
+
+    /// The next `count` words.
+    pub(crate) fn words(&mut self, count: usize) -> Result<Vec<u32>, CookError> {
+        let words = self.take(count.saturating_mul(4))?.chunks_exact(4);
         Ok(words
             .map(|w| u32::from_le_bytes(w.try_into().expect("4 bytes")))
             .collect())

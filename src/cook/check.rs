@@ -7,7 +7,7 @@
 //! cycle; boxes are then computed children first by walking the nodes backwards.
 
 use super::CookError;
-use crate::bvh::build::MAX_DEPTH;
+use crate::bvh::build::{MAX_DEPTH, PARALLEL_THRESHOLD};
 use crate::geom::Aabb;
 use crate::mesh::Mesh;
 
@@ -15,26 +15,31 @@ use crate::mesh::Mesh;
 /// degenerate once, and nothing else: the triangles a build of the mesh keeps.
 pub(crate) fn check_slot_order(mesh: &Mesh, order: &[u32]) -> Result<(), CookError> {
     let count = mesh.triangle_count();
-    let mut seen = vec![false; count];
+    let mut slotted = vec![false; count];
     for &id in order {
-        let slot = seen
+        let slot = slotted
             .get_mut(id as usize)
             .ok_or(CookError::Corrupt("a leaf names a triangle past the mesh"))?;
         if std::mem::replace(slot, true) {
             return Err(CookError::Corrupt("a triangle sits in two leaf slots"));
         }
-        if mesh.is_degenerate(id) {
-            return Err(CookError::Corrupt("a leaf holds a degenerate triangle"));
-        }
     }
-    let kept = (0..count as u32)
-        .filter(|&id| !mesh.is_degenerate(id))
-        .count();
-    if kept != order.len() {
-        return Err(CookError::Corrupt("a triangle is in no leaf"));
+    // Each triangle has a slot if and only if it is not degenerate: checked in blocks.
+    let blocks = count.div_ceil(CHECK_BLOCK);
+    let wrong = crate::parallel::map(count > PARALLEL_THRESHOLD, 0..blocks, |block| {
+        let ids = block * CHECK_BLOCK..((block + 1) * CHECK_BLOCK).min(count);
+        ids.into_iter()
+            .find(|&id| slotted[id] == mesh.is_degenerate(id as u32))
+    });
+    match wrong.into_iter().flatten().next() {
+        None => Ok(()),
+        Some(id) if slotted[id] => Err(CookError::Corrupt("a leaf holds a degenerate triangle")),
+        Some(_) => Err(CookError::Corrupt("a triangle is in no leaf")),
     }
-    Ok(())
 }
+
+/// Triangles checked by one task of [`check_slot_order`].
+const CHECK_BLOCK: usize = 4096;
 
 /// Which slots the leaves cover: each exactly once, in the end.
 #[derive(Debug)]

@@ -156,6 +156,12 @@ impl From<std::io::Error> for CookError {
     }
 }
 
+/// Whether `bytes` start as a cooked file does (its magic number): a file to read with
+/// [`AnyAccel::from_cooked`] or [`crate::Scene::from_cooked`] rather than as a mesh.
+pub fn is_cooked(bytes: &[u8]) -> bool {
+    bytes.starts_with(&MAGIC)
+}
+
 /// What a structure writes after its mesh, and reads back over it. The kinds that do not
 /// cook keep the defaults, which refuse.
 pub(crate) trait Cook: Sized {
@@ -164,14 +170,15 @@ pub(crate) trait Cook: Sized {
         Err(CookError::Unsupported(kind))
     }
 
-    /// The mesh the body refers to.
-    fn cooked_mesh(&self) -> Option<&Mesh> {
+    /// The mesh whose triangle ids the structure answers in, if it keeps it in that order
+    /// (the zero-byte trees keep theirs reordered).
+    fn own_mesh(&self) -> Option<&Mesh> {
         None
     }
 
     /// Writes the mesh and the body.
     fn write(&self, kind: AccelKind, out: &mut Writer) -> Result<(), CookError> {
-        let mesh = self.cooked_mesh().ok_or(CookError::Unsupported(kind))?;
+        let mesh = self.own_mesh().ok_or(CookError::Unsupported(kind))?;
         write_mesh(out, mesh)?;
         self.write_body(kind, out)
     }
@@ -185,9 +192,21 @@ pub(crate) trait Cook: Sized {
 
 impl Cook for crate::permuted::Permuted<crate::zbt::ZeroByteTree> {}
 impl Cook for crate::permuted::Permuted<crate::zbt::HybridTree> {}
-impl Cook for crate::grid::UniformGrid {}
-impl Cook for crate::grid::SpatialHash {}
-impl Cook for crate::kdtree::KdTree {}
+impl Cook for crate::grid::UniformGrid {
+    fn own_mesh(&self) -> Option<&Mesh> {
+        Some(self.mesh())
+    }
+}
+impl Cook for crate::grid::SpatialHash {
+    fn own_mesh(&self) -> Option<&Mesh> {
+        Some(self.mesh())
+    }
+}
+impl Cook for crate::kdtree::KdTree {
+    fn own_mesh(&self) -> Option<&Mesh> {
+        Some(self.mesh())
+    }
+}
 
 fn write_mesh(out: &mut Writer, mesh: &Mesh) -> Result<(), CookError> {
     out.points(mesh.vertices())?;

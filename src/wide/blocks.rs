@@ -53,24 +53,39 @@ impl LeafBlocks {
         mesh: Arc<Mesh>,
         order: &[u32],
         leaf_words: &[u32],
+        parallel: bool,
     ) -> Option<(Self, Vec<u32>)> {
-        let mut by_slot: Vec<usize> = (0..leaf_words.len()).collect();
-        by_slot.sort_unstable_by_key(|&i| leaf_word::unpack(leaf_words[i]));
-        let mut words = Vec::new();
-        let mut corners = Vec::new();
+        // Each leaf's (first, count) above its index, so that one integer sort puts the
+        // leaves in slot order.
+        let mut by_slot: Vec<u64> = leaf_words
+            .iter()
+            .enumerate()
+            .map(|(i, &word)| {
+                let (first, count) = leaf_word::unpack(word);
+                (u64::from(first) << 5 | u64::from(count - 1)) << 32 | i as u64
+            })
+            .collect();
+        by_slot.sort_unstable();
+        // Runs of leaves make their blocks apart (on rayon's pool for large trees), each from
+        // word 0; the runs are then joined and their block words moved by what precedes them.
+        let runs: Vec<&[u64]> = by_slot.chunks(LEAVES_PER_RUN).collect();
+        let parallel = parallel && runs.len() > 1;
+        let made = crate::parallel::map(parallel, runs, |run| {
+            blocks_of(&mesh, order, leaf_words, run)
+        });
+        let mut words = Vec::with_capacity(made.iter().flatten().map(|(w, _)| w.len()).sum());
         let mut block_words = vec![0; leaf_words.len()];
-        for i in by_slot {
-            let word = leaf_words[i];
-            let (first, count) = leaf_word::unpack(word);
-            let block = u32::try_from(words.len()).ok()?;
-            if block as usize >= leaf_word::MAX_SLOTS {
-                return None;
+        for (run_words, run_blocks) in made.into_iter().collect::<Option<Vec<_>>>()? {
+            let offset = u32::try_from(words.len()).ok()?;
+            for (leaf, block, count) in run_blocks {
+                let block = offset.checked_add(block)?;
+                if block as usize >= leaf_word::MAX_SLOTS {
+                    return None;
+                }
+                block_words[leaf] = leaf_word::pack(block, count);
             }
-            let ids = order.get(first as usize..(first + count) as usize)?;
-            push_block(&mut words, &mut corners, &mesh, ids)?;
-            block_words[i] = leaf_word::pack(block, count);
+            words.extend_from_slice(&run_words);
         }
-        words.shrink_to_fit();
         let len = order.len();
         Some((Self { mesh, words, len }, block_words))
     }
@@ -154,6 +169,32 @@ impl LeafBlocks {
     }
 }
 
+/// Leaves whose blocks one task of [`LeafBlocks::new`] makes.
+const LEAVES_PER_RUN: usize = 16 * 1024;
+
+/// The blocks of the leaves `run` (sorted keys of [`LeafBlocks::new`]) from word 0, and each
+/// leaf's index, block and count; `None` as [`LeafBlocks::new`].
+#[allow(clippy::type_complexity)]
+fn blocks_of(
+    mesh: &Mesh,
+    order: &[u32],
+    leaf_words: &[u32],
+    run: &[u64],
+) -> Option<(Vec<u32>, Vec<(usize, u32, u32)>)> {
+    let mut words = Vec::new();
+    let mut corners = Vec::new();
+    let mut blocks = Vec::with_capacity(run.len());
+    for &key in run {
+        let leaf = key as u32 as usize;
+        let (first, count) = leaf_word::unpack(leaf_words[leaf]);
+        let block = u32::try_from(words.len()).ok()?;
+        let ids = order.get(first as usize..(first + count) as usize)?;
+        push_block(&mut words, &mut corners, mesh, ids)?;
+        blocks.push((leaf, block, count));
+    }
+    Some((words, blocks))
+}
+
 /// The places of a block's first triangle's corners: the first three of its list.
 const FIRST_PLACES: u32 = 0x02_01_00;
 
@@ -223,7 +264,7 @@ mod tests {
             first += count;
         }
         leaves.push(leaves[3]);
-        let (blocks, block_words) = LeafBlocks::new(mesh.clone(), &order, &leaves).unwrap();
+        let (blocks, block_words) = LeafBlocks::new(mesh.clone(), &order, &leaves, true).unwrap();
         assert_eq!(blocks.len(), order.len());
         assert_eq!(block_words.len(), leaves.len());
         for (&word, &block_word) in leaves.iter().zip(&block_words) {
@@ -247,10 +288,10 @@ mod tests {
     fn a_shared_edge_shares_corners() {
         let vertices = vec![Vec3::ZERO, Vec3::X, Vec3::Y, Vec3::ONE];
         let mesh = Arc::new(Mesh::new(vertices, vec![[0, 1, 2], [2, 1, 3]]).unwrap());
-        let (blocks, _) = LeafBlocks::new(mesh, &[0, 1], &[leaf_word::pack(0, 2)]).unwrap();
+        let (blocks, _) = LeafBlocks::new(mesh, &[0, 1], &[leaf_word::pack(0, 2)], false).unwrap();
         assert_eq!(blocks.heap_bytes(), 60);
         let vertices = vec![Vec3::ZERO, Vec3::X, Vec3::Y];
         let mesh = Arc::new(Mesh::new(vertices, vec![[0, 0, 2], [0, 1, 2]]).unwrap());
-        assert!(LeafBlocks::new(mesh, &[0, 1], &[leaf_word::pack(0, 2)]).is_none());
+        assert!(LeafBlocks::new(mesh, &[0, 1], &[leaf_word::pack(0, 2)], false).is_none());
     }
 }

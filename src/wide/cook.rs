@@ -18,6 +18,7 @@ use super::kind::NodeKind;
 use super::leaves::WideLeaves;
 use super::{WideBvh, leaves};
 use crate::bvh::LeafCopy;
+use crate::bvh::build::PARALLEL_THRESHOLD;
 use crate::bvh::nodes::leaf_word;
 use crate::catalog::AccelKind;
 use crate::cook::{
@@ -27,7 +28,7 @@ use crate::geom::Aabb;
 use crate::mesh::Mesh;
 
 impl<N: NodeKind> Cook for WideBvh<N> {
-    fn cooked_mesh(&self) -> Option<&Mesh> {
+    fn own_mesh(&self) -> Option<&Mesh> {
         Some(self.mesh())
     }
 
@@ -64,14 +65,12 @@ impl<N: NodeKind> Cook for WideBvh<N> {
         };
         let mut root = body.u32()?;
         let count = body.count(4 * N::WIDTH)?;
-        let words: Vec<u32> = (0..count * N::WIDTH)
-            .map(|_| body.u32())
-            .collect::<Result<_, _>>()?;
+        let words = body.words(count * N::WIDTH)?;
         let order = body.u32s()?;
         check_slot_order(&mesh, &order)?;
         check_shape::<N>(root, &words, order.len())?;
         let (mut nodes, root_bounds) = make_nodes::<N>(root, &words, &mesh, &order);
-        let triangles = leaves((&mut nodes, &mut root), mesh, order, copy);
+        let triangles = leaves((&mut nodes, &mut root), mesh, order, (copy, true));
         Ok(Self::from_parts(nodes, root, root_bounds, triangles))
     }
 }
@@ -134,7 +133,9 @@ fn check_shape<N: NodeKind>(root: u32, words: &[u32], slots: usize) -> Result<()
 }
 
 /// The nodes of `words` (checked) with their child boxes from the mesh, and the root's box.
-/// Children come after their parents, so the nodes are made last first.
+/// Leaf boxes (a pass over the triangles) and nodes (their octant orders) are made on rayon's
+/// pool on large trees; node boxes between the two, last node first, since children come after
+/// their parents.
 fn make_nodes<N: NodeKind>(root: u32, words: &[u32], mesh: &Mesh, order: &[u32]) -> (Vec<N>, Aabb) {
     let leaf_box = |word: u32| {
         let (first, count) = leaf_word::unpack(word);
@@ -148,22 +149,51 @@ fn make_nodes<N: NodeKind>(root: u32, words: &[u32], mesh: &Mesh, order: &[u32])
         };
         return (Vec::new(), bounds);
     }
-    let count = words.len() / N::WIDTH;
-    let mut boxes = vec![Aabb::EMPTY; count];
-    let mut nodes = Vec::with_capacity(count);
-    for index in (0..count).rev() {
-        let node = &words[index * N::WIDTH..(index + 1) * N::WIDTH];
-        let children: Vec<(Aabb, u32)> = node
-            .iter()
-            .take_while(|&&w| w != 0)
-            .map(|&word| match leaf_word::is_leaf(word) {
-                true => (leaf_box(word), word),
-                false => (boxes[word as usize], word),
-            })
-            .collect();
-        boxes[index] = children.iter().fold(Aabb::EMPTY, |b, (c, _)| b.union(*c));
-        nodes.push(N::from_children(&children));
+    let nodes: Vec<&[u32]> = words.chunks_exact(N::WIDTH).collect();
+    let parallel = nodes.len() > PARALLEL_THRESHOLD / N::WIDTH;
+    // Each node's used slots: leaf children with their boxes, node children's boxes to come.
+    let mut children: Vec<Children> = crate::parallel::map(parallel, &nodes, |node| {
+        let mut slots = Children::default();
+        for &word in node.iter().take_while(|&&w| w != 0) {
+            let bounds = match leaf_word::is_leaf(word) {
+                true => leaf_box(word),
+                false => Aabb::EMPTY,
+            };
+            slots.slots[slots.used] = (bounds, word);
+            slots.used += 1;
+        }
+        slots
+    });
+    let mut boxes = vec![Aabb::EMPTY; nodes.len()];
+    for index in (0..nodes.len()).rev() {
+        let node = &mut children[index];
+        let mut union = Aabb::EMPTY;
+        for (bounds, word) in &mut node.slots[..node.used] {
+            if !leaf_word::is_leaf(*word) {
+                *bounds = boxes[*word as usize];
+            }
+            union = union.union(*bounds);
+        }
+        boxes[index] = union;
     }
-    nodes.reverse();
-    (nodes, boxes[0])
+    let made = crate::parallel::map(parallel, &children, |node| {
+        N::from_children(&node.slots[..node.used])
+    });
+    (made, boxes[0])
+}
+
+/// A node's used slots while its boxes are computed.
+#[derive(Clone, Copy)]
+struct Children {
+    slots: [(Aabb, u32); 8],
+    used: usize,
+}
+
+impl Default for Children {
+    fn default() -> Self {
+        Self {
+            slots: [(Aabb::EMPTY, 0); 8],
+            used: 0,
+        }
+    }
 }

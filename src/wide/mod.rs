@@ -139,7 +139,7 @@ impl<N: NodeKind> WideBvh<N> {
             (&mut nodes, &mut root),
             mesh,
             built.triangle_order,
-            options.leaf_copy,
+            (options.leaf_copy, options.parallel),
         );
         Ok(Self::from_parts(nodes, root, root_bounds, triangles))
     }
@@ -213,19 +213,19 @@ impl<N: NodeKind> WideBvh<N> {
 /// blocks (the tree's leaf words rewritten to address them) if the copy is blocks, they are
 /// addressable and, where `Auto` chose them, they take at most
 /// [`AUTO_BLOCKS_MAX_BYTES_PER_TRIANGLE`] with the nodes; else slots (with the index copy in
-/// place of blocks).
+/// place of blocks). Blocks are made on rayon's pool if `parallel`.
 fn leaves<N: NodeKind>(
     (nodes, root): (&mut [N], &mut u32),
     mesh: Arc<Mesh>,
     order: Vec<u32>,
-    asked: LeafCopy,
+    (asked, parallel): (LeafCopy, bool),
 ) -> WideLeaves {
     let copy = asked.or(default_leaf_copy::<N>(&mesh));
     let budget = (asked == LeafCopy::Auto)
         .then(|| mesh.triangle_count() * AUTO_BLOCKS_MAX_BYTES_PER_TRIANGLE);
     if copy == LeafCopy::Blocks {
         let leaf_words: Vec<u32> = leaf_words_mut((nodes, root)).map(|word| *word).collect();
-        let made = LeafBlocks::new(mesh.clone(), &order, &leaf_words);
+        let made = LeafBlocks::new(mesh.clone(), &order, &leaf_words, parallel);
         let fits = |blocks: &LeafBlocks| {
             budget.is_none_or(|max| size_of_val(nodes) + blocks.heap_bytes() <= max)
         };

@@ -45,6 +45,10 @@ pub enum Command {
     /// Render a mesh to a PNG image with camera rays: normals, depth, or a heat map of the
     /// nodes each ray's walk enters.
     Render(RenderArgs),
+    /// Build a tree over an OBJ mesh and write both to a cooked file, which `query`, `render`
+    /// and the library (`AnyAccel::load`) read without building; print one JSON line on
+    /// stderr: the build, save and load times and the file's size.
+    Cook(CookArgs),
 }
 
 impl Command {
@@ -55,6 +59,7 @@ impl Command {
             Command::Query(_) => "query",
             Command::Rays(_) => "rays",
             Command::Render(_) => "render",
+            Command::Cook(_) => "cook",
         }
     }
 }
@@ -103,7 +108,9 @@ pub struct BenchArgs {
 #[derive(Debug, Args)]
 pub struct QueryArgs {
     /// The mesh; triangle ids are its triangles in file order (polygons are fan-triangulated).
-    #[arg(long, value_name = "MESH.obj")]
+    /// A tree cooked by `raybatch cook` may stand in its place: it brings its mesh and its
+    /// tree, so the build flags do not apply and --tree, if given, must name its kind.
+    #[arg(long, value_name = "MESH.obj|TREE.rbt")]
     pub mesh: PathBuf,
     /// Rays as records of 8 little-endian f32: ox oy oz dx dy dz tmin tmax (invalid rays, e.g.
     /// with NaN, are not an error: they miss).
@@ -114,25 +121,15 @@ pub struct QueryArgs {
     /// [tmin, tmax], else 0.
     #[arg(long, value_parser = choice(&QueryKind::ALL, QueryKind::name))]
     pub kind: QueryKind,
+    #[command(flatten)]
+    pub build: TreeArgs,
     /// The output, written only if everything succeeded ('-': stdout). See tools/README.md
     /// for what happens when the path exists.
     #[arg(long, value_name = "HITS.bin")]
     pub out: PathBuf,
-    /// The structure to build [default: the fastest per ray for the mesh: bvh8, or bvh8q
-    /// where the tree and mesh are beyond the caches (from about 550k triangles)].
-    #[arg(long, value_parser = tree_parser())]
-    pub tree: Option<AccelKind>,
     /// The triangle test: watertight (exact on shared edges) or moller-trumbore.
     #[arg(long, default_value = Kernel::default().name(), value_parser = choice(&Kernel::ALL, Kernel::name))]
     pub kernel: Kernel,
-    /// Largest leaf size.
-    #[arg(long, value_name = "N", default_value = DEFAULT_LEAF, value_parser = leaf_size)]
-    pub leaf: u32,
-    /// The wide trees (bvh4, bvh4q, bvh8, bvh8q): the largest leaf their collapse may merge
-    /// small subtrees into where the surface area heuristic says it pays (1: the binary tree's
-    /// leaves).
-    #[arg(long, value_name = "N", default_value_t = BuildOptions::default().wide_leaf_size, value_parser = leaf_size)]
-    pub wide_leaf: u32,
     /// Answer the rays as one batch (same answers, usually faster) instead of one by one.
     #[arg(long)]
     pub batched: bool,
@@ -155,16 +152,6 @@ pub struct QueryArgs {
     /// larger chunks share nodes among more rays and take about 90 bytes a ray.
     #[arg(long, value_name = "N", value_parser = positive)]
     pub max_chunk: Option<usize>,
-    /// What the tree copies of its leaves' triangles in leaf order: nothing, the vertex
-    /// indices with the triangle id (12 bytes per triangle, in place of the 4-byte id; meshes
-    /// of more than 2^21 vertices copy nothing), the corners (36 bytes per triangle) or, for
-    /// the wide trees, blocks (each leaf's ids and distinct corners together, one read a leaf,
-    /// about 28 bytes per triangle; the binary trees copy the indices instead); auto: the
-    /// indices for bvh4 and bvh8, blocks for bvh8q over 8 MiB with its mesh (the indices
-    /// where blocks would pass 38 bytes a triangle), nothing for the others. Fewer dependent
-    /// loads per leaf; the same answers.
-    #[arg(long, value_name = "COPY", default_value = LeafCopy::default().name(), value_parser = choice(&LeafCopy::ALL, LeafCopy::name))]
-    pub leaf_copy: LeafCopy,
     /// With --batched, whether the wide trees walk rays side by side, hiding cache misses
     /// (always), shares each node among the rays that reach it (never), or picks by its size
     /// (auto).
@@ -179,6 +166,63 @@ pub struct QueryArgs {
     /// stream), unordered (one stream, children in a fixed order).
     #[arg(long, value_name = "ORDER", default_value = BatchOrdering::default().name(), value_parser = choice(&BatchOrdering::ALL, BatchOrdering::name))]
     pub ordering: BatchOrdering,
+}
+
+/// The tree to build over a mesh (`query`, `cook`).
+#[derive(Debug, Args)]
+pub struct TreeArgs {
+    /// The structure to build [default: the fastest per ray for the mesh: bvh8, or bvh8q
+    /// where the tree and mesh are beyond the caches (from about 550k triangles)].
+    #[arg(long, value_parser = tree_parser())]
+    pub tree: Option<AccelKind>,
+    /// Largest leaf size.
+    #[arg(long, value_name = "N", default_value = DEFAULT_LEAF, value_parser = leaf_size)]
+    pub leaf: u32,
+    /// The wide trees (bvh4, bvh4q, bvh8, bvh8q): the largest leaf their collapse may merge
+    /// small subtrees into where the surface area heuristic says it pays (1: the binary tree's
+    /// leaves).
+    #[arg(long, value_name = "N", default_value_t = BuildOptions::default().wide_leaf_size, value_parser = leaf_size)]
+    pub wide_leaf: u32,
+    /// What the tree copies of its leaves' triangles in leaf order: nothing, the vertex
+    /// indices with the triangle id (12 bytes per triangle, in place of the 4-byte id; meshes
+    /// of more than 2^21 vertices copy nothing), the corners (36 bytes per triangle) or, for
+    /// the wide trees, blocks (each leaf's ids and distinct corners together, one read a leaf,
+    /// about 28 bytes per triangle; the binary trees copy the indices instead); auto: the
+    /// indices for bvh4 and bvh8, blocks for bvh8q over 8 MiB with its mesh (the indices
+    /// where blocks would pass 38 bytes a triangle), nothing for the others. Fewer dependent
+    /// loads per leaf; the same answers.
+    #[arg(long, value_name = "COPY", default_value = LeafCopy::default().name(), value_parser = choice(&LeafCopy::ALL, LeafCopy::name))]
+    pub leaf_copy: LeafCopy,
+}
+
+impl TreeArgs {
+    /// The build options the flags ask for.
+    pub fn options(&self) -> BuildOptions {
+        BuildOptions::default()
+            .with_leaf_size(self.leaf)
+            .with_wide_leaf_size(self.wide_leaf)
+            .with_leaf_copy(self.leaf_copy)
+    }
+}
+
+/// Flags of `raybatch cook`.
+#[derive(Debug, Args)]
+pub struct CookArgs {
+    /// The mesh (OBJ).
+    #[arg(long, value_name = "MESH.obj", required_unless_present = "scene")]
+    pub mesh: Option<PathBuf>,
+    /// A built-in scene's mesh instead of an OBJ file (the terrain has 1,002,528 triangles).
+    #[arg(long, value_name = "NAME", conflicts_with = "mesh", value_parser = PossibleValuesParser::new(raybatch_tools::scenes::NAMES))]
+    pub scene: Option<String>,
+    /// The cooked file to write ('-': stdout).
+    #[arg(long, value_name = "TREE.rbt")]
+    pub out: PathBuf,
+    #[command(flatten)]
+    pub build: TreeArgs,
+    /// Load the written tree back N times, timing each, and report the fastest (at most
+    /// 1000).
+    #[arg(long, value_name = "N", default_value = "3", value_parser = passes)]
+    pub loads: usize,
 }
 
 /// Flags of `raybatch rays`.
@@ -215,8 +259,8 @@ pub enum Shade {
 /// Flags of `raybatch render`.
 #[derive(Debug, Args)]
 pub struct RenderArgs {
-    /// The mesh to look at.
-    #[arg(long, value_name = "MESH.obj")]
+    /// The mesh to look at: an OBJ file, or a tree cooked by `raybatch cook` (with its mesh).
+    #[arg(long, value_name = "MESH.obj|TREE.rbt")]
     pub mesh: PathBuf,
     /// The PNG image to write ('-': stdout).
     #[arg(long, value_name = "IMAGE.png")]
@@ -234,9 +278,9 @@ pub struct RenderArgs {
     /// What each pixel shows.
     #[arg(long, value_enum, default_value = "normal")]
     pub shade: Shade,
-    /// The structure to build.
-    #[arg(long, default_value = AccelKind::DEFAULT.name(), value_parser = tree_parser())]
-    pub tree: AccelKind,
+    /// The structure to build [default: bvh8]; a cooked file brings its own.
+    #[arg(long, value_parser = tree_parser())]
+    pub tree: Option<AccelKind>,
     /// Answer the camera rays as one batch (the same image) instead of one by one; not with
     /// --shade heat, which counts the one-ray walk.
     #[arg(long)]

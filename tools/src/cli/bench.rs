@@ -225,6 +225,8 @@ struct Row {
     ordering: ChildOrdering,
     build_ms: f64,
     parallel_build_ms: f64,
+    /// Loading the tree from its cooked bytes, if its kind cooks.
+    load_ms: Option<f64>,
     bytes_per_triangle: f64,
     /// The most heap the (parallel) build had in use at once, per triangle.
     build_peak_per_triangle: f64,
@@ -433,6 +435,8 @@ fn bench_tree(
     let (tree, build_ms) = build(kind, &scene.mesh, options.with_parallel(false));
     let ((_, parallel_build_ms), build_peak) =
         heap::peak_during(|| build(kind, &scene.mesh, options));
+    progress::step(format!("{label}: loading it cooked"));
+    let load_ms = load_ms(&tree);
     let mrays = COLUMNS
         .iter()
         .map(|c| {
@@ -445,11 +449,20 @@ fn bench_tree(
         ordering,
         build_ms,
         parallel_build_ms,
+        load_ms,
         bytes_per_triangle: tree.bytes_per_triangle(),
         build_peak_per_triangle: build_peak as f64 / scene.mesh.triangle_count().max(1) as f64,
         mrays,
     };
     (row, tree)
+}
+
+/// The fastest of three loads of `tree` from its cooked bytes (`raybatch cook`), in
+/// milliseconds, if its kind cooks.
+fn load_ms(tree: &AnyAccel) -> Option<f64> {
+    let bytes = tree.to_cooked().ok()?;
+    let load = || time_ms(|| AnyAccel::from_cooked(&bytes).expect("a cooked tree loads")).1;
+    (0..3).map(|_| load()).min_by(f64::total_cmp)
 }
 
 /// The tree and its build time in milliseconds.
@@ -492,6 +505,7 @@ fn results_table(rows: &[Row]) -> Table {
     table.column("ordering", Align::Left);
     table.column("build ms", Align::Right);
     table.column("parallel build ms", Align::Right);
+    table.column("load ms", Align::Right);
     table.column("bytes/tri", Align::Right);
     table.column("build peak bytes/tri", Align::Right);
     for c in &COLUMNS {
@@ -516,6 +530,7 @@ fn row_cells(row: &Row, rows: &[Row]) -> Vec<String> {
         row.ordering.name().to_string(),
         format!("{:.1}", row.build_ms),
         format!("{:.1}", row.parallel_build_ms),
+        row.load_ms.map_or("-".to_string(), |ms| format!("{ms:.1}")),
         format!("{:.1}", row.bytes_per_triangle),
         format!("{:.1}", row.build_peak_per_triangle),
     ];

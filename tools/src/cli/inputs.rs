@@ -4,7 +4,7 @@ use std::fs::File;
 use std::io::BufReader;
 use std::path::Path;
 
-use raybatch::{Mesh, MeshError, Ray};
+use raybatch::{AccelKind, AnyAccel, Mesh, MeshError, Ray};
 use raybatch_tools::formats::read_rays as read_ray_file;
 
 use crate::error::CliError;
@@ -18,6 +18,49 @@ pub fn load_mesh(path: &Path) -> Result<Mesh, CliError> {
         MeshError::Io { .. } => CliError::input(e.to_string()),
         _ => CliError::input(format!("{}: {e}", path.display())),
     })?;
+    with_faces(mesh, path)
+}
+
+/// What `--mesh` names: an OBJ file, or a cooked structure (`raybatch cook`), which brings
+/// its own tree.
+pub enum MeshFile {
+    Obj(Mesh),
+    /// The structure and the milliseconds its loading took (the file already read).
+    Cooked(AnyAccel, f64),
+}
+
+/// Reads `path` as a cooked structure if it starts as one, else as an OBJ file ([`load_mesh`]).
+pub fn read_mesh_file(path: &Path) -> Result<MeshFile, CliError> {
+    let bytes = std::fs::read(path)
+        .map_err(|e| CliError::input(format!("cannot read {}: {e}", path.display())))?;
+    let named = |e: &dyn std::fmt::Display| CliError::input(format!("{}: {e}", path.display()));
+    if raybatch::cook::is_cooked(&bytes) {
+        let (tree, ms) = crate::measure::time_ms(|| AnyAccel::from_cooked(&bytes));
+        return Ok(MeshFile::Cooked(tree.map_err(|e| named(&e))?, ms));
+    }
+    let mesh = Mesh::from_obj_bytes(&bytes).map_err(|e| named(&e))?;
+    Ok(MeshFile::Obj(with_faces(mesh, path)?))
+}
+
+/// Fails if a cooked structure of kind `cooked` is asked to be a `tree` of another kind.
+pub fn check_cooked_kind(
+    path: &Path,
+    cooked: AccelKind,
+    tree: Option<AccelKind>,
+) -> Result<(), CliError> {
+    match tree {
+        Some(tree) if tree != cooked => Err(CliError::usage(format!(
+            "{} holds a cooked {} tree, not {}: drop --tree or cook it again",
+            path.display(),
+            cooked.name(),
+            tree.name()
+        ))),
+        _ => Ok(()),
+    }
+}
+
+/// `mesh`, unless it has no face.
+fn with_faces(mesh: Mesh, path: &Path) -> Result<Mesh, CliError> {
     if mesh.triangle_count() == 0 {
         return Err(CliError::input(format!(
             "{}: no faces found (is this an OBJ file?)",

@@ -1,12 +1,14 @@
 //! `raybatch`, the command-line tool: `bench` measures the trees on built-in scenes or a user
-//! mesh, `query` answers a file of rays against an OBJ mesh, `rays` writes a benchmark ray set
-//! as a ray file, `render` draws a mesh through the queries. See [`args`] and `--help`.
+//! mesh, `query` answers a file of rays against an OBJ mesh (or a cooked tree), `rays` writes a benchmark ray set
+//! as a ray file, `render` draws a mesh through the queries, `cook`
+//! writes a tree and its mesh to a file that loads without a build. See [`args`] and `--help`.
 //!
 //! Exit codes: 0 on success, 1 when an input or output file is bad, 2 when the command line is.
 
 mod args;
 mod bench;
 mod compare;
+mod cook;
 mod error;
 mod heap;
 mod inputs;
@@ -57,6 +59,7 @@ fn run(command: Command) -> Result<(), CliError> {
         Command::Query(a) => query::run(&a),
         Command::Rays(a) => rays::run(&a),
         Command::Render(a) => render::run(&a),
+        Command::Cook(a) => cook::run(&a),
     }
 }
 

@@ -10,13 +10,13 @@
 //! pool of `N` threads (see [`crate::runner`]); `--passes N` times N passes after a warm-up
 //! and reports their median. Every combination writes the same bytes.
 
-use raybatch::{AccelKind, BuildOptions, Footprint, Ray};
+use raybatch::{AccelKind, AnyAccel, Footprint, Mesh, Ray};
 use raybatch_tools::formats::{write_closest, write_occluded};
 
 use crate::args::QueryArgs;
 use crate::error::CliError;
 use crate::heap;
-use crate::inputs::{load_mesh, read_rays};
+use crate::inputs::{MeshFile, check_cooked_kind, read_mesh_file, read_rays};
 use crate::json::JsonLine;
 use crate::measure::{Measurement, measure, measure_passes, time_ms};
 use crate::output::Output;
@@ -41,19 +41,22 @@ struct Answers<'t> {
 pub fn run(args: &QueryArgs) -> Result<(), CliError> {
     let output = Output::plan(&args.out, &[&args.mesh, &args.rays])?;
     progress::step(format!("loading {}", args.mesh.display()));
-    let mesh = load_mesh(&args.mesh)?;
-    let triangles = mesh.triangle_count();
+    let file = read_mesh_file(&args.mesh)?;
     progress::step(format!("reading {}", args.rays.display()));
     let rays = read_rays(&args.rays)?;
-    let kind = args.tree.unwrap_or_else(|| AccelKind::for_mesh(&mesh));
-    progress::step(format!("building {}", kind.name()));
-    let options = BuildOptions::default()
-        .with_leaf_size(args.leaf)
-        .with_wide_leaf_size(args.wide_leaf)
-        .with_leaf_copy(args.leaf_copy);
-    let ((tree, build_ms), build_peak) =
-        heap::peak_during(|| time_ms(|| kind.build(mesh, &options)));
-    let tree = tree.map_err(|e| CliError::input(format!("{}: {e}", args.mesh.display())))?;
+    // The JSON key of the time the tree took: its build, or its loading from a cooked file.
+    let time_key = match file {
+        MeshFile::Obj(_) => "build_ms",
+        MeshFile::Cooked(..) => "load_ms",
+    };
+    let (tree, build_ms, build_peak) = match file {
+        MeshFile::Obj(mesh) => build(mesh, args)?,
+        MeshFile::Cooked(tree, load_ms) => {
+            check_cooked_kind(&args.mesh, tree.kind(), args.build.tree)?;
+            (tree, load_ms, 0)
+        }
+    };
+    let (kind, triangles) = (tree.kind(), tree.triangle_count());
     progress::step(format!("answering {} rays", rays.len()));
     let answers = answer(&tree, build_ms, &rays, args)?;
     progress::step("writing the answers");
@@ -65,12 +68,28 @@ pub fn run(args: &QueryArgs) -> Result<(), CliError> {
     let memory = Memory {
         tree_bytes: tree.heap_bytes(),
         build_peak_bytes: build_peak,
+        time_key,
     };
     eprintln!(
         "{}",
         report(args, kind, triangles, &answers, memory).render()
     );
     Ok(())
+}
+
+/// The tree `--tree` names (or the library's choice) over `mesh`, the milliseconds its build
+/// took and the most heap it had in use.
+fn build(mesh: Mesh, args: &QueryArgs) -> Result<(AnyAccel, f64, usize), CliError> {
+    let kind = args
+        .build
+        .tree
+        .unwrap_or_else(|| AccelKind::for_mesh(&mesh));
+    progress::step(format!("building {}", kind.name()));
+    let options = args.build.options();
+    let ((tree, build_ms), build_peak) =
+        heap::peak_during(|| time_ms(|| kind.build(mesh, &options)));
+    let tree = tree.map_err(|e| CliError::input(format!("{}: {e}", args.mesh.display())))?;
+    Ok((tree, build_ms, build_peak))
 }
 
 /// Answers every ray with `tree`, timing as `--passes` asks.
@@ -129,6 +148,8 @@ fn query_for(args: &QueryArgs) -> Query {
 struct Memory {
     tree_bytes: usize,
     build_peak_bytes: usize,
+    /// `build_ms`, or `load_ms` for a cooked tree (whose peak is then 0: nothing was built).
+    time_key: &'static str,
 }
 
 fn report(
@@ -146,7 +167,7 @@ fn report(
         .str("kernel", args.kernel.name())
         .str("engine", answers.engine.name())
         .int("threads", answers.threads)
-        .num("build_ms", answers.build_ms)
+        .num(memory.time_key, answers.build_ms)
         .int("tree_bytes", memory.tree_bytes)
         .int("build_peak_bytes", memory.build_peak_bytes)
         .num("query_ms", answers.query.seconds * 1e3)
@@ -157,11 +178,11 @@ fn report(
         None => line,
     };
     let line = if kind.is_wide() {
-        line.int("wide_leaf", args.wide_leaf as usize)
+        line.int("wide_leaf", args.build.wide_leaf as usize)
     } else {
         line
     };
-    let line = line.str("leaf_copy", args.leaf_copy.name());
+    let line = line.str("leaf_copy", args.build.leaf_copy.name());
     let line = if args.batched {
         line.str("ordering", args.ordering.name())
     } else {

@@ -12,12 +12,12 @@
 use std::io;
 
 use raybatch::glam::Vec3;
-use raybatch::{BuildOptions, Hit, Kernel, Mesh, Ray};
+use raybatch::{AccelKind, BuildOptions, Hit, Kernel, Mesh, Ray};
 use rayon::prelude::*;
 
 use crate::args::{RenderArgs, Shade};
 use crate::error::CliError;
-use crate::inputs::load_mesh;
+use crate::inputs::{MeshFile, check_cooked_kind, read_mesh_file};
 use crate::output::Output;
 use crate::progress::{self, Job};
 use crate::runner::Measured;
@@ -36,18 +36,30 @@ pub fn run(args: &RenderArgs) -> Result<(), CliError> {
     }
     let output = Output::plan(&args.out, &[&args.mesh])?;
     progress::step(format!("loading {}", args.mesh.display()));
-    let mesh = load_mesh(&args.mesh)?;
-    progress::step(format!("building {}", args.tree.name()));
-    let tree = args
-        .tree
-        .build(mesh.clone(), &BuildOptions::default())
-        .map_err(|e| CliError::input(format!("{}: {e}", args.mesh.display())))?;
+    let (tree, mesh) = match read_mesh_file(&args.mesh)? {
+        MeshFile::Obj(mesh) => {
+            let kind = args.tree.unwrap_or(AccelKind::DEFAULT);
+            progress::step(format!("building {}", kind.name()));
+            let tree = kind
+                .build(mesh.clone(), &BuildOptions::default())
+                .map_err(|e| CliError::input(format!("{}: {e}", args.mesh.display())))?;
+            (tree, mesh)
+        }
+        MeshFile::Cooked(tree, _) => {
+            check_cooked_kind(&args.mesh, tree.kind(), args.tree)?;
+            let mesh = tree
+                .mesh()
+                .expect("every kind that cooks keeps its mesh")
+                .clone();
+            (tree, mesh)
+        }
+    };
     let camera = Camera::looking_at(&mesh, Vec3::from_array(args.view), args);
     let rays = camera.rays();
     let pixels = trace(&tree, &rays, args)?;
     let image = shade(&mesh, &rays, &pixels, args.shade);
     progress::done();
-    eprintln!("{}", summary(&pixels, args));
+    eprintln!("{}", summary(&pixels, tree.kind(), args));
     output.write(|out| write_png(out, args.width, args.height, &image))
 }
 
@@ -218,13 +230,13 @@ fn unit_to_byte(x: f32) -> u8 {
 }
 
 /// One line for stderr: hits, and the visits the heat map spreads over its colours.
-fn summary(pixels: &[Pixel], args: &RenderArgs) -> String {
+fn summary(pixels: &[Pixel], kind: AccelKind, args: &RenderArgs) -> String {
     let hits = pixels.iter().filter(|p| p.hit.is_some()).count();
     let mut line = format!(
         "render: {}x{} pixels, {hits} hit the mesh ({} tree)",
         args.width,
         args.height,
-        args.tree.name()
+        kind.name()
     );
     if args.shade == Shade::Heat {
         let total: u64 = pixels.iter().map(|p| u64::from(p.visits)).sum();
