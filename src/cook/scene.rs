@@ -106,9 +106,10 @@ fn read_instance(body: &mut Reader) -> Result<(InstanceDesc, bool), CookError> {
     let transform =
         Rigid::from_cooked(rotation, floats[7], translation).map_err(CookError::Scene)?;
     let (mask, user) = (body.u32()?, body.u64()?);
-    let removed = match body.u32()? {
-        0 => false,
-        1 => true,
+    let removed = match (body.u32()?, mask) {
+        (0, _) => false,
+        (1, 0) => true,
+        (1, _) => return Err(CookError::Corrupt("a removed instance on layers")),
         _ => return Err(CookError::Corrupt("removed is neither 0 nor 1")),
     };
     let desc = InstanceDesc::new(mesh, transform)

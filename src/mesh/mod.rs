@@ -117,6 +117,9 @@ impl From<ObjError> for MeshError {
     }
 }
 
+/// Triangles per run of [`Mesh::bounds`].
+const BOUNDS_RUN: usize = 16 * 1024;
+
 impl Mesh {
     /// Validates and wraps the arrays. Nothing is reordered or changed.
     pub fn new(vertices: Vec<Vec3>, triangles: Vec<[u32; 3]>) -> Result<Self, MeshError> {
@@ -219,10 +222,17 @@ impl Mesh {
 
     /// The box around every vertex used by a triangle (empty for an empty mesh).
     pub fn bounds(&self) -> Aabb {
-        self.triangles
-            .iter()
-            .flatten()
-            .fold(Aabb::EMPTY, |b, &i| b.grow(self.vertices[i as usize]))
+        // Fixed runs of triangles, on rayon's pool for large meshes, joined in order: the
+        // same box whatever the thread count.
+        let runs: Vec<&[[u32; 3]]> = self.triangles.chunks(BOUNDS_RUN).collect();
+        let box_of = |run: &[[u32; 3]]| {
+            run.iter()
+                .flatten()
+                .fold(Aabb::EMPTY, |b, &i| b.grow(self.vertices[i as usize]))
+        };
+        let parallel = runs.len() > 4;
+        let boxes = crate::parallel::map(parallel, runs, box_of);
+        boxes.into_iter().fold(Aabb::EMPTY, Aabb::union)
     }
 
     /// Bytes held by the vertex and index arrays.

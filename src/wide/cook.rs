@@ -33,11 +33,11 @@ impl<N: NodeKind> Cook for WideBvh<N> {
     }
 
     fn write_body(&self, _kind: AccelKind, out: &mut Writer) -> Result<(), CookError> {
-        let (copy, order, first_slots) = match &self.triangles {
-            WideLeaves::Slots(slots) => (slots.copy(), slots.ids().collect(), None),
+        let (order, first_slots) = match &self.triangles {
+            WideLeaves::Slots(slots) => (slots.ids().collect(), None),
             WideLeaves::Blocks(blocks) => {
                 let (order, first_slots) = blocks.slot_ranges(self.leaf_words());
-                (LeafCopy::Blocks, order, Some(first_slots))
+                (order, Some(first_slots))
             }
         };
         // A block's leaf word as the slot range it was made from.
@@ -48,7 +48,9 @@ impl<N: NodeKind> Cook for WideBvh<N> {
             }
             _ => word,
         };
-        let copy = LeafCopy::ALL.iter().position(|&c| c == copy);
+        let copy = LeafCopy::ALL
+            .iter()
+            .position(|&c| c == leaf_copy(&self.triangles));
         out.u32(copy.expect("every copy is listed") as u32);
         out.u32(as_slots(self.root));
         out.count(self.nodes.len())?;
@@ -71,6 +73,10 @@ impl<N: NodeKind> Cook for WideBvh<N> {
         check_shape::<N>(root, &words, order.len())?;
         let (mut nodes, root_bounds) = make_nodes::<N>(root, &words, &mesh, &order);
         let triangles = leaves((&mut nodes, &mut root), mesh, order, (copy, true));
+        // A saved tree's copy is the one it had, which the same mesh gives again.
+        if leaf_copy(&triangles) != copy {
+            return Err(CookError::Corrupt("a leaf copy the mesh cannot have"));
+        }
         Ok(Self::from_parts(nodes, root, root_bounds, triangles))
     }
 }
@@ -87,6 +93,14 @@ impl<N: NodeKind> WideBvh<N> {
             .into_iter()
             .chain(children)
             .filter(|&word| leaf_word::is_leaf(word))
+    }
+}
+
+/// The copy `leaves` hold.
+fn leaf_copy(leaves: &WideLeaves) -> LeafCopy {
+    match leaves {
+        WideLeaves::Slots(slots) => slots.copy(),
+        WideLeaves::Blocks(_) => LeafCopy::Blocks,
     }
 }
 

@@ -50,29 +50,48 @@ pub(crate) fn octant_orders(children: &[(Aabb, u32)], width: usize) -> [u32; 8] 
     let used = children.len();
     std::array::from_fn(|octant| {
         let diagonal = octant_diagonal(octant as u32);
-        let keys = centres.map(|centre| total_order_key(centre.dot(diagonal)));
-        // Each used slot goes after the used slots of smaller key and the earlier ones of the
-        // same key: a stable sort by counting, in fixed loops without branches, which the
-        // compiler turns into vector compares (a sort's unpredictable branches made the
-        // orders a third of loading a cooked tree).
-        let ranks: [u32; 8] = std::array::from_fn(|slot| {
-            let key = keys[slot];
-            let mut before = 0;
-            for other in 0..8 {
-                let first = (keys[other] < key) | (keys[other] == key) & (other < slot);
-                before += u32::from(first & (other < used));
-            }
-            before
+        // Each slot's sort key above its number (so that ties keep slot order), unused slots
+        // last; a sorting network orders them without branches (a sort's unpredictable
+        // branches made the orders a quarter of loading a cooked tree).
+        let mut keys: [u64; 8] = std::array::from_fn(|slot| {
+            let key = if slot < used {
+                u64::from(total_order_key(centres[slot].dot(diagonal)) as u32 ^ 0x8000_0000)
+            } else {
+                u64::from(u32::MAX)
+            };
+            key << 32 | slot as u64
         });
-        let mut slots: [usize; 8] = std::array::from_fn(|slot| slot);
-        for slot in 0..used {
-            slots[ranks[slot] as usize & 7] = slot;
-        }
-        slots[..width]
-            .iter()
-            .rev()
-            .fold(0, |word, &slot| (word << slot_bits(width)) | slot as u32)
+        sort_eight(&mut keys);
+        keys[..width].iter().rev().fold(0, |word, &key| {
+            (word << slot_bits(width)) | (key & 7) as u32
+        })
     })
+}
+
+/// Sorts `keys` with a sorting network: 19 compare-exchanges in six rounds, without a branch.
+#[inline(always)]
+fn sort_eight(keys: &mut [u64; 8]) {
+    #[inline(always)]
+    fn exchange(keys: &mut [u64; 8], a: usize, b: usize) {
+        let (low, high) = (keys[a].min(keys[b]), keys[a].max(keys[b]));
+        keys[a] = low;
+        keys[b] = high;
+    }
+    for (a, b) in [(0, 2), (1, 3), (4, 6), (5, 7)] {
+        exchange(keys, a, b);
+    }
+    for (a, b) in [(0, 4), (1, 5), (2, 6), (3, 7)] {
+        exchange(keys, a, b);
+    }
+    for (a, b) in [(0, 1), (2, 3), (4, 5), (6, 7)] {
+        exchange(keys, a, b);
+    }
+    for (a, b) in [(2, 4), (3, 5), (1, 4), (3, 6)] {
+        exchange(keys, a, b);
+    }
+    for (a, b) in [(1, 2), (3, 4), (5, 6)] {
+        exchange(keys, a, b);
+    }
 }
 
 /// An integer whose order is [`f32::total_cmp`]'s order of `x`.

@@ -9,6 +9,7 @@ mod batched_large;
 mod batched_options;
 mod batched_proptest;
 mod batched_rays;
+mod cooked;
 mod custom_visitor;
 mod hard_builds;
 mod hard_degenerate;
