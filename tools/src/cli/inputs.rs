@@ -26,7 +26,7 @@ pub fn load_mesh(path: &Path) -> Result<Mesh, CliError> {
 pub enum MeshFile {
     Obj(Mesh),
     /// The structure and the milliseconds its loading took (the file already read).
-    Cooked(AnyAccel, f64),
+    Cooked(Box<AnyAccel>, f64),
 }
 
 /// Reads `path` as a cooked structure if it starts as one, else as an OBJ file ([`load_mesh`]).
@@ -36,7 +36,7 @@ pub fn read_mesh_file(path: &Path) -> Result<MeshFile, CliError> {
     let named = |e: &dyn std::fmt::Display| CliError::input(format!("{}: {e}", path.display()));
     if raybatch::cook::is_cooked(&bytes) {
         let (tree, ms) = crate::measure::time_ms(|| AnyAccel::from_cooked(&bytes));
-        return Ok(MeshFile::Cooked(tree.map_err(|e| named(&e))?, ms));
+        return Ok(MeshFile::Cooked(Box::new(tree.map_err(|e| named(&e))?), ms));
     }
     let mesh = Mesh::from_obj_bytes(&bytes).map_err(|e| named(&e))?;
     Ok(MeshFile::Obj(with_faces(mesh, path)?))

@@ -53,7 +53,7 @@ pub fn run(args: &QueryArgs) -> Result<(), CliError> {
         MeshFile::Obj(mesh) => build(mesh, args)?,
         MeshFile::Cooked(tree, load_ms) => {
             check_cooked_kind(&args.mesh, tree.kind(), args.build.tree)?;
-            (tree, load_ms, 0)
+            (*tree, load_ms, 0)
         }
     };
     let (kind, triangles) = (tree.kind(), tree.triangle_count());

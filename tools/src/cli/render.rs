@@ -51,7 +51,7 @@ pub fn run(args: &RenderArgs) -> Result<(), CliError> {
                 .mesh()
                 .expect("every kind that cooks keeps its mesh")
                 .clone();
-            (tree, mesh)
+            (*tree, mesh)
         }
     };
     let camera = Camera::looking_at(&mesh, Vec3::from_array(args.view), args);
