@@ -276,6 +276,60 @@ fn query_ok(dir: &TempDir, mesh: &Path, rays: &Path, extra: &[&str]) -> (Vec<u8>
     (bytes, stderr(&output).trim_end().to_string())
 }
 
+/// `cook` writes a file that `query` answers from as from the OBJ mesh, bit for bit, for a
+/// binary and a wide tree; a `--tree` of another kind is a usage error, a damaged file an
+/// input error.
+#[test]
+fn cooked_files_answer_as_the_mesh() {
+    let dir = TempDir::new("cooked");
+    let rays = many_rays();
+    let (mesh, rays_path) = write_inputs(&dir, &rays);
+    let cooked = dir.path("mesh.rbt");
+    for kind in ["aabb", "bvh8q"] {
+        let args = [
+            "cook",
+            "--mesh",
+            mesh.to_str().unwrap(),
+            "--out",
+            cooked.to_str().unwrap(),
+        ];
+        let output = raybatch(&[&args[..], &["--tree", kind, "--loads", "2"]].concat());
+        assert!(output.status.success(), "{}", stderr(&output));
+        let line = stderr(&output);
+        assert_eq!(json_str(line.trim_end(), "tree"), Some(kind), "{line}");
+        for query_kind in ["closest", "any"] {
+            let from_mesh = query_ok(
+                &dir,
+                &mesh,
+                &rays_path,
+                &["--kind", query_kind, "--tree", kind],
+            );
+            let from_file = query_ok(
+                &dir,
+                &cooked,
+                &rays_path,
+                &["--kind", query_kind, "--batched"],
+            );
+            assert!(from_mesh.0 == from_file.0, "{kind} {query_kind}");
+            assert!(from_file.1.contains("\"load_ms\""), "{}", from_file.1);
+        }
+    }
+    let other = ["--kind", "any", "--tree", "bvh4"];
+    assert_fails(
+        &dir,
+        &cooked,
+        &rays_path,
+        &other,
+        2,
+        "holds a cooked bvh8q tree",
+    );
+    let mut bytes = std::fs::read(&cooked).unwrap();
+    let last = bytes.len() - 1;
+    bytes[last] ^= 1;
+    std::fs::write(&cooked, bytes).unwrap();
+    assert_fails(&dir, &cooked, &rays_path, &["--kind", "any"], 1, "damaged");
+}
+
 /// Without `--tree` the query builds the fastest structure for the mesh
 /// (`AccelKind::for_mesh`: the 8-wide tree for a mesh this small), answering as it does.
 #[test]
@@ -501,14 +555,14 @@ fn bad_flags_are_usage_errors() {
     let help = raybatch(&["--help"]);
     assert!(help.status.success());
     let text = String::from_utf8_lossy(&help.stdout);
-    for command in ["bench", "query", "rays", "render"] {
+    for command in ["bench", "query", "rays", "render", "cook"] {
         assert!(text.contains(command), "{text}");
     }
     // Each command has its own help, listing every structure for --tree.
     let help = raybatch(&["query", "--help"]);
     assert!(help.status.success());
     let text = String::from_utf8_lossy(&help.stdout);
-    assert!(text.contains("--mesh <MESH.obj>"), "{text}");
+    assert!(text.contains("--mesh <MESH.obj|TREE.rbt>"), "{text}");
     for kind in raybatch::AccelKind::ALL {
         assert!(text.contains(kind.name()), "{text}");
     }
