@@ -16,7 +16,8 @@ use super::nodes::NodeFormat;
 use super::{AabbTree, BuildOptions, Bvh, ChildOrdering, LeafCopy, MAX_LEAF_SIZE};
 use crate::catalog::AccelKind;
 use crate::cook::{
-    Cook, CookError, Depths, NodeRefs, Reader, SlotCover, Writer, check_slot_order, slots_box,
+    Cook, CookError, DEGENERATE_IN_LEAF, Depths, NodeRefs, Reader, SlotCover, Writer,
+    check_slot_order, slots_box,
 };
 use crate::geom::Aabb;
 use crate::mesh::Mesh;
@@ -48,7 +49,7 @@ impl<N: NodeFormat> Cook for AabbTree<N> {
         let order = body.u32s()?;
         check_slot_order(&mesh, &order)?;
         let depth = check_shape(&nodes, order.len())?;
-        fill_boxes(&mut nodes, &mesh, &order);
+        fill_boxes(&mut nodes, &mesh, &order)?;
         let built = BuiltTree {
             nodes,
             triangle_order: order,
@@ -159,17 +160,19 @@ fn check_shape(nodes: &[BuiltNode], slots: usize) -> Result<usize, CookError> {
 }
 
 /// The box of every node, from the mesh: leaves' from their triangles (on rayon's pool for
-/// large trees), then internal nodes' from their children's (which come after them).
-fn fill_boxes(nodes: &mut [BuiltNode], mesh: &Mesh, order: &[u32]) {
+/// large trees), then internal nodes' from their children's (which come after them). Fails
+/// if a leaf holds a degenerate triangle.
+fn fill_boxes(nodes: &mut [BuiltNode], mesh: &Mesh, order: &[u32]) -> Result<(), CookError> {
     let parallel = nodes.len() > PARALLEL_THRESHOLD;
     let leaf_boxes = crate::parallel::map(parallel, &*nodes, |node| match node.first_child {
         0 if node.count > 0 => slots_box(mesh, order, node.first, node.count),
-        _ => Aabb::EMPTY,
+        _ => Some(Aabb::EMPTY),
     });
     for index in (0..nodes.len()).rev() {
         nodes[index].bounds = match nodes[index].first_child {
-            0 => leaf_boxes[index],
+            0 => leaf_boxes[index].ok_or(DEGENERATE_IN_LEAF)?,
             c => nodes[c as usize].bounds.union(nodes[c as usize + 1].bounds),
         };
     }
+    Ok(())
 }

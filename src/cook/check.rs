@@ -7,12 +7,14 @@
 //! cycle; boxes are then computed children first by walking the nodes backwards.
 
 use super::CookError;
-use crate::bvh::build::{MAX_DEPTH, PARALLEL_THRESHOLD};
-use crate::geom::Aabb;
+use crate::bvh::build::MAX_DEPTH;
+use crate::geom::{Aabb, is_degenerate};
 use crate::mesh::Mesh;
 
-/// Checks that `order` (a tree's slot order) holds every triangle of `mesh` that is not
-/// degenerate once, and nothing else: the triangles a build of the mesh keeps.
+/// Checks that `order` (a tree's slot order) names each triangle of `mesh` at most once, and
+/// that every triangle it leaves out is degenerate. That the ones it names are not is checked
+/// as their leaves' boxes are made ([`slots_box`]), which reads their corners anyway: together,
+/// the slots hold exactly the triangles a build of the mesh keeps.
 pub(crate) fn check_slot_order(mesh: &Mesh, order: &[u32]) -> Result<(), CookError> {
     let count = mesh.triangle_count();
     let mut slotted = vec![false; count];
@@ -24,22 +26,12 @@ pub(crate) fn check_slot_order(mesh: &Mesh, order: &[u32]) -> Result<(), CookErr
             return Err(CookError::Corrupt("a triangle sits in two leaf slots"));
         }
     }
-    // Each triangle has a slot if and only if it is not degenerate: checked in blocks.
-    let blocks = count.div_ceil(CHECK_BLOCK);
-    let wrong = crate::parallel::map(count > PARALLEL_THRESHOLD, 0..blocks, |block| {
-        let ids = block * CHECK_BLOCK..((block + 1) * CHECK_BLOCK).min(count);
-        ids.into_iter()
-            .find(|&id| slotted[id] == mesh.is_degenerate(id as u32))
-    });
-    match wrong.into_iter().flatten().next() {
-        None => Ok(()),
-        Some(id) if slotted[id] => Err(CookError::Corrupt("a leaf holds a degenerate triangle")),
-        Some(_) => Err(CookError::Corrupt("a triangle is in no leaf")),
+    let mut left_out = (0..count).filter(|&id| !slotted[id]);
+    if left_out.any(|id| !mesh.is_degenerate(id as u32)) {
+        return Err(CookError::Corrupt("a triangle is in no leaf"));
     }
+    Ok(())
 }
-
-/// Triangles checked by one task of [`check_slot_order`].
-const CHECK_BLOCK: usize = 4096;
 
 /// Which slots the leaves cover: each exactly once, in the end.
 #[derive(Debug)]
@@ -158,10 +150,16 @@ impl Depths {
     }
 }
 
-/// The box of slots `first..first + count` of `order`, as the build folds a leaf's triangles.
-pub(crate) fn slots_box(mesh: &Mesh, order: &[u32], first: u32, count: u32) -> Aabb {
+/// The box of slots `first..first + count` of `order`, as the build folds a leaf's triangles;
+/// `None` if one of them is degenerate (a build leaves those out of every leaf).
+pub(crate) fn slots_box(mesh: &Mesh, order: &[u32], first: u32, count: u32) -> Option<Aabb> {
     let slots = &order[first as usize..(first + count) as usize];
-    slots.iter().fold(Aabb::EMPTY, |b, &id| {
-        b.union(Aabb::from_points(&mesh.triangle(id)))
+    slots.iter().try_fold(Aabb::EMPTY, |b, &id| {
+        let corners = mesh.triangle(id);
+        (!is_degenerate(&corners)).then(|| b.union(Aabb::from_points(&corners)))
     })
 }
+
+/// The error of a leaf holding a degenerate triangle ([`slots_box`] said `None`).
+pub(crate) const DEGENERATE_IN_LEAF: CookError =
+    CookError::Corrupt("a leaf holds a degenerate triangle");

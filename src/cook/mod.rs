@@ -38,7 +38,9 @@ use std::path::Path;
 use std::sync::Arc;
 
 pub(crate) use bytes::{Reader, Writer};
-pub(crate) use check::{Depths, NodeRefs, SlotCover, check_slot_order, slots_box};
+pub(crate) use check::{
+    DEGENERATE_IN_LEAF, Depths, NodeRefs, SlotCover, check_slot_order, slots_box,
+};
 
 use crate::catalog::{AccelKind, AnyAccel};
 use crate::mesh::{Mesh, MeshError};

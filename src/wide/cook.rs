@@ -22,7 +22,8 @@ use crate::bvh::build::PARALLEL_THRESHOLD;
 use crate::bvh::nodes::leaf_word;
 use crate::catalog::AccelKind;
 use crate::cook::{
-    Cook, CookError, Depths, NodeRefs, Reader, SlotCover, Writer, check_slot_order, slots_box,
+    Cook, CookError, DEGENERATE_IN_LEAF, Depths, NodeRefs, Reader, SlotCover, Writer,
+    check_slot_order, slots_box,
 };
 use crate::geom::Aabb;
 use crate::mesh::Mesh;
@@ -71,7 +72,7 @@ impl<N: NodeKind> Cook for WideBvh<N> {
         let order = body.u32s()?;
         check_slot_order(&mesh, &order)?;
         check_shape::<N>(root, &words, order.len())?;
-        let (mut nodes, root_bounds) = make_nodes::<N>(root, &words, &mesh, &order);
+        let (mut nodes, root_bounds) = make_nodes::<N>(root, &words, &mesh, &order)?;
         let triangles = leaves((&mut nodes, &mut root), mesh, order, (copy, true));
         // A saved tree's copy is the one it had, which the same mesh gives again.
         if leaf_copy(&triangles) != copy {
@@ -149,19 +150,23 @@ fn check_shape<N: NodeKind>(root: u32, words: &[u32], slots: usize) -> Result<()
 /// The nodes of `words` (checked) with their child boxes from the mesh, and the root's box.
 /// Leaf boxes (a pass over the triangles) and nodes (their octant orders) are made on rayon's
 /// pool on large trees; node boxes between the two, last node first, since children come after
-/// their parents.
-fn make_nodes<N: NodeKind>(root: u32, words: &[u32], mesh: &Mesh, order: &[u32]) -> (Vec<N>, Aabb) {
+/// their parents. Fails if a leaf holds a degenerate triangle.
+fn make_nodes<N: NodeKind>(
+    root: u32,
+    words: &[u32],
+    mesh: &Mesh,
+    order: &[u32],
+) -> Result<(Vec<N>, Aabb), CookError> {
     let leaf_box = |word: u32| {
         let (first, count) = leaf_word::unpack(word);
         slots_box(mesh, order, first, count)
     };
     if words.is_empty() {
-        let bounds = if leaf_word::is_leaf(root) {
-            leaf_box(root)
-        } else {
-            Aabb::EMPTY
+        let bounds = match leaf_word::is_leaf(root) {
+            true => leaf_box(root).ok_or(DEGENERATE_IN_LEAF)?,
+            false => Aabb::EMPTY,
         };
-        return (Vec::new(), bounds);
+        return Ok((Vec::new(), bounds));
     }
     let nodes: Vec<&[u32]> = words.chunks_exact(N::WIDTH).collect();
     let parallel = nodes.len() > PARALLEL_THRESHOLD / N::WIDTH;
@@ -171,13 +176,17 @@ fn make_nodes<N: NodeKind>(root: u32, words: &[u32], mesh: &Mesh, order: &[u32])
         for &word in node.iter().take_while(|&&w| w != 0) {
             let bounds = match leaf_word::is_leaf(word) {
                 true => leaf_box(word),
-                false => Aabb::EMPTY,
+                false => Some(Aabb::EMPTY),
             };
-            slots.slots[slots.used] = (bounds, word);
+            slots.degenerate |= bounds.is_none();
+            slots.slots[slots.used] = (bounds.unwrap_or(Aabb::EMPTY), word);
             slots.used += 1;
         }
         slots
     });
+    if children.iter().any(|node| node.degenerate) {
+        return Err(DEGENERATE_IN_LEAF);
+    }
     let mut boxes = vec![Aabb::EMPTY; nodes.len()];
     for index in (0..nodes.len()).rev() {
         let node = &mut children[index];
@@ -193,7 +202,7 @@ fn make_nodes<N: NodeKind>(root: u32, words: &[u32], mesh: &Mesh, order: &[u32])
     let made = crate::parallel::map(parallel, &children, |node| {
         N::from_children(&node.slots[..node.used])
     });
-    (made, boxes[0])
+    Ok((made, boxes[0]))
 }
 
 /// A node's used slots while its boxes are computed.
@@ -201,6 +210,8 @@ fn make_nodes<N: NodeKind>(root: u32, words: &[u32], mesh: &Mesh, order: &[u32])
 struct Children {
     slots: [(Aabb, u32); 8],
     used: usize,
+    /// A leaf child holds a degenerate triangle.
+    degenerate: bool,
 }
 
 impl Default for Children {
@@ -208,6 +219,7 @@ impl Default for Children {
         Self {
             slots: [(Aabb::EMPTY, 0); 8],
             used: 0,
+            degenerate: false,
         }
     }
 }
