@@ -23,6 +23,8 @@ use crate::geom::Aabb;
 use crate::mesh::Mesh;
 
 impl<N: NodeFormat> Cook for AabbTree<N> {
+    const COOKS: bool = true;
+
     fn own_mesh(&self) -> Option<&Mesh> {
         Some(self.mesh())
     }
@@ -61,7 +63,7 @@ impl<N: NodeFormat> Cook for AabbTree<N> {
 }
 
 /// Writes `options` as five words.
-pub(crate) fn write_options(out: &mut Writer, options: &BuildOptions) {
+fn write_options(out: &mut Writer, options: &BuildOptions) {
     let ordering = ChildOrdering::ALL
         .iter()
         .position(|&o| o == options.ordering);
@@ -74,7 +76,7 @@ pub(crate) fn write_options(out: &mut Writer, options: &BuildOptions) {
 }
 
 /// Reads options written by [`write_options`], checking each.
-pub(crate) fn read_options(body: &mut Reader) -> Result<BuildOptions, CookError> {
+fn read_options(body: &mut Reader) -> Result<BuildOptions, CookError> {
     let max_leaf_size = body.u32()?;
     let ordering = *ChildOrdering::ALL
         .get(body.u32()? as usize)

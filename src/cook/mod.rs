@@ -167,6 +167,9 @@ pub fn is_cooked(bytes: &[u8]) -> bool {
 /// What a structure writes after its mesh, and reads back over it. The kinds that do not
 /// cook keep the defaults, which refuse.
 pub(crate) trait Cook: Sized {
+    /// Whether the structure cooks (checked before anything is written).
+    const COOKS: bool = false;
+
     /// Writes the body (the mesh is written before it by the caller).
     fn write_body(&self, kind: AccelKind, _out: &mut Writer) -> Result<(), CookError> {
         Err(CookError::Unsupported(kind))
@@ -180,8 +183,8 @@ pub(crate) trait Cook: Sized {
 
     /// Writes the mesh and the body.
     fn write(&self, kind: AccelKind, out: &mut Writer) -> Result<(), CookError> {
-        let mesh = self.own_mesh().ok_or(CookError::Unsupported(kind))?;
-        write_mesh(out, mesh)?;
+        let mesh = self.own_mesh().filter(|_| Self::COOKS);
+        write_mesh(out, mesh.ok_or(CookError::Unsupported(kind))?)?;
         self.write_body(kind, out)
     }
 
@@ -212,8 +215,7 @@ impl Cook for crate::kdtree::KdTree {
 
 fn write_mesh(out: &mut Writer, mesh: &Mesh) -> Result<(), CookError> {
     out.points(mesh.vertices())?;
-    let indices: Vec<u32> = mesh.triangles().iter().flatten().copied().collect();
-    out.u32s(&indices)
+    out.u32s(mesh.triangles().as_flattened())
 }
 
 fn read_mesh(body: &mut Reader) -> Result<Mesh, CookError> {
@@ -238,6 +240,11 @@ fn write_structure(out: &mut Writer, structure: &AnyAccel) -> Result<(), CookErr
 /// Reads a structure written by [`write_structure`].
 fn read_structure(body: &mut Reader) -> Result<AnyAccel, CookError> {
     let code = body.u32()?;
+    read_mesh_and_body(code, body)
+}
+
+/// Reads the mesh and the body of a structure of kind number `code`.
+fn read_mesh_and_body(code: u32, body: &mut Reader) -> Result<AnyAccel, CookError> {
     let kind = AccelKind::from_code(code).ok_or(CookError::UnknownKind(code))?;
     let mesh = Arc::new(read_mesh(body)?);
     AnyAccel::read_cooked(kind, mesh, body)
@@ -288,15 +295,6 @@ fn payload(bytes: &[u8]) -> Result<(u32, &[u8]), CookError> {
     Ok((word(12), payload))
 }
 
-/// What the header's content number names, for [`CookError::WrongContent`].
-fn content_name(content: u32) -> &'static str {
-    if content == SCENE {
-        "scene"
-    } else {
-        "structure"
-    }
-}
-
 impl AnyAccel {
     /// The structure as a cooked file's bytes (see [`crate::cook`]): its kind, mesh and tree.
     /// [`CookError::Unsupported`] for the kinds that do not cook.
@@ -314,13 +312,11 @@ impl AnyAccel {
         if content == SCENE {
             return Err(CookError::WrongContent {
                 expected: "structure",
-                found: content_name(content),
+                found: "scene",
             });
         }
-        let kind = AccelKind::from_code(content).ok_or(CookError::UnknownKind(content))?;
         let mut body = Reader::new(payload);
-        let mesh = Arc::new(read_mesh(&mut body)?);
-        let structure = AnyAccel::read_cooked(kind, mesh, &mut body)?;
+        let structure = read_mesh_and_body(content, &mut body)?;
         body.finish()?;
         Ok(structure)
     }

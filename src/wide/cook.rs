@@ -29,6 +29,8 @@ use crate::geom::Aabb;
 use crate::mesh::Mesh;
 
 impl<N: NodeKind> Cook for WideBvh<N> {
+    const COOKS: bool = true;
+
     fn own_mesh(&self) -> Option<&Mesh> {
         Some(self.mesh())
     }

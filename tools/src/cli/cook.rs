@@ -64,7 +64,7 @@ pub fn run(args: &CookArgs) -> Result<(), CliError> {
 
 /// The fastest of `loads` loads of `bytes`, in milliseconds, after checking that a loaded
 /// tree cooks to the same bytes (the same mesh, shape and leaves).
-fn fastest_load(bytes: &[u8], loads: usize) -> Result<f64, CliError> {
+pub fn fastest_load(bytes: &[u8], loads: usize) -> Result<f64, CliError> {
     let load = || AnyAccel::from_cooked(bytes).map_err(|e| CliError::input(e.to_string()));
     let again = load()?
         .to_cooked()
