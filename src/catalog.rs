@@ -66,6 +66,15 @@ macro_rules! structures {
                 }
             }
 
+            /// Whether structures of this kind can be saved and loaded ([`AnyAccel::save`];
+            /// the others return [`crate::CookError::Unsupported`]): for bindings and tools
+            /// that offer the choice before they build.
+            pub fn cooks(self) -> bool {
+                match self {
+                    $(AccelKind::$kind => <$tree as crate::cook::Cook>::COOKS,)+
+                }
+            }
+
             /// The kind's number in cooked files (`crate::cook`): fixed forever, whatever
             /// the list's order.
             pub(crate) fn code(self) -> u32 {
@@ -304,6 +313,14 @@ impl AnyAccel {
     #[inline]
     pub fn run<T: KindTask>(&self, task: T) -> T::Output {
         each_tree!(&self.tree, (kind, tree) => task.run(kind, tree))
+    }
+
+    /// The corners of triangle `id` in the structure's triangle ids (the ids its hits
+    /// report, the mesh's own even where the tree keeps the mesh reordered), or `None` past
+    /// the last triangle: what a caller needs for a hit's normal without keeping the mesh.
+    pub fn triangle(&self, id: u32) -> Option<[glam::Vec3; 3]> {
+        let exists = (id as usize) < Footprint::triangle_count(self);
+        exists.then(|| self.corners(id))
     }
 
     /// The corners of triangle `id` of the structure's mesh (an id its queries report).

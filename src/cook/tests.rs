@@ -108,6 +108,12 @@ fn leaf_blocks_round_trip() {
 }
 
 #[test]
+fn cooks_names_the_kinds_that_cook() {
+    let cooking: Vec<AccelKind> = AccelKind::ALL.into_iter().filter(|k| k.cooks()).collect();
+    assert_eq!(cooking, COOKED);
+}
+
+#[test]
 fn kinds_that_do_not_cook_say_so() {
     let mesh = Arc::new(soup(50, 6));
     for kind in AccelKind::ALL {

@@ -24,7 +24,8 @@
 //! Between frames: [`Scene::set_transform`] (one instance, refits its path),
 //! [`Scene::set_transforms`] (many, one refit), [`Scene::rebuild_top`] (new top-level tree),
 //! [`Scene::deform_mesh`] (new vertices, the mesh's AABB tree refitted),
-//! [`Scene::add_instances`] (inserted into the top level, the meshes' trees untouched),
+//! [`Scene::add_mesh`] (a mesh for instances to come), [`Scene::add_instances`] (inserted into
+//! the top level, the meshes' trees untouched),
 //! [`Scene::remove_instance`] (its path refitted), [`Scene::set_mask`], [`Scene::set_user`].
 //! Bad input is a [`SceneError`] and leaves the scene as it was.
 //!

@@ -75,6 +75,14 @@ impl Scene {
         }
     }
 
+    /// Adds a mesh's structure after the last mesh and returns its index, for instances
+    /// added later ([`Scene::add_instances`]): a mesh streamed in during play, or a scene
+    /// grown one mesh at a time. No instance of it exists yet, so no answer changes.
+    pub fn add_mesh(&mut self, mesh: AnyAccel) -> usize {
+        self.meshes.push(mesh);
+        self.meshes.len() - 1
+    }
+
     /// Adds instances after the last one: for what spawns during play (the meshes' trees are
     /// untouched). A few are inserted into the top-level tree, each down one path; more than
     /// an eighth of the scene at once rebuilds it. Returns their indices. Their triangles take

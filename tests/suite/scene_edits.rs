@@ -520,3 +520,27 @@ fn ten_thousand_random_edits_answer_as_fresh_scenes() {
         }
     }
 }
+
+#[test]
+fn a_mesh_added_later_answers_once_placed() {
+    let meshes = vec![icosphere(1), icosphere(2)];
+    let at = |x: f32| Rigid::from_translation(Vec3::new(x, 0.0, 0.0)).unwrap();
+    let descs = [
+        InstanceDesc::new(0, at(-2.0)),
+        InstanceDesc::new(1, at(2.0)),
+    ];
+    let mut scene = build_scene(&meshes[..1], &[AccelKind::Bvh8], &descs[..1]);
+    let rays = sphere_rays(400, 31);
+    let before: Vec<_> = rays.iter().map(|r| opt_bits(scene.cast_ray(r))).collect();
+    let tree = AccelKind::Zbt
+        .build(meshes[1].clone(), &BuildOptions::default())
+        .unwrap();
+    // Added but not placed: nothing changes.
+    assert_eq!(scene.add_mesh(tree), 1);
+    assert_eq!(scene.meshes().len(), 2);
+    let after: Vec<_> = rays.iter().map(|r| opt_bits(scene.cast_ray(r))).collect();
+    assert_eq!(before, after);
+    // Placed: the scene answers as one built with both meshes.
+    assert_eq!(scene.add_instances(&descs[1..]), Ok(1..2));
+    assert_matches(&scene, &meshes, &descs, &rays);
+}

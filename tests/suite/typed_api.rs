@@ -187,3 +187,20 @@ fn typed_queries_match_any_accel() {
         }
     }
 }
+
+/// `AnyAccel::triangle` gives the corners of the triangle a hit names, in the mesh's own ids
+/// for every kind (the zero-byte trees, which reorder their mesh, included), and `None` past
+/// the last triangle.
+#[test]
+fn triangle_gives_the_corners_of_the_mesh_triangle_of_each_id() {
+    let mesh = Arc::new(icosphere_with_duplicates(2));
+    let count = mesh.triangle_count() as u32;
+    for kind in AccelKind::ALL {
+        let tree = kind.build(mesh.clone(), &BuildOptions::default()).unwrap();
+        for id in 0..count {
+            assert_eq!(tree.triangle(id), Some(mesh.triangle(id)), "{kind:?} {id}");
+        }
+        assert_eq!(tree.triangle(count), None, "{kind:?}");
+        assert_eq!(tree.triangle(u32::MAX), None, "{kind:?}");
+    }
+}
