@@ -41,7 +41,7 @@ impl<'a> Rays<'a> {
     /// The rays of `flat` (origin and direction, six floats each) over `[tnear, tfar]`;
     /// an error if the lengths disagree.
     pub fn new(flat: &'a [f32], tnear: Limit<'a>, tfar: Limit<'a>) -> Result<Self, String> {
-        if flat.len() % 6 != 0 {
+        if !flat.len().is_multiple_of(6) {
             return Err(format!("{} floats are not rows of 6", flat.len()));
         }
         let count = flat.len() / 6;
