@@ -527,6 +527,10 @@ pub(crate) fn split_in_two(prims: &mut [Prim], extent: &Extent, depth: usize) ->
     partition(prims, centers, split)
 }
 
+/// The bin of a centroid on one axis: the scaled offset truncated, clamped to the last bin.
+/// The build bins through [`bins_of`] and partitions by a float compare; this is the reference
+/// both are tested against.
+#[cfg(test)]
 fn bin_of(center: f32, min: f32, scale: f32) -> usize {
     (((center - min) * scale) as usize).min(BINS - 1)
 }
@@ -603,8 +607,12 @@ fn partition(prims: &mut [Prim], centers: &Aabb, split: Split) -> Parts {
             let extent = centers.extent()[axis];
             let scale = BINS as f32 / extent;
             let min = centers.min[axis];
+            // `bin_of(x) < bin` compared as floats: the bin is the product truncated (and
+            // clamped to the last bin, which is at least `bin`), so for a product `q >= 0` it
+            // lies below `bin` exactly when `q < bin`. No conversion per prim.
+            let below = bin as f32;
             let (mid, le, re) =
-                partition_in_place(prims, |p| bin_of(p.center[axis], min, scale) < bin);
+                partition_in_place(prims, |p| (p.center[axis] - min) * scale < below);
             if mid == 0 || mid == prims.len() {
                 return partition(prims, centers, Split::Median { axis });
             }
@@ -688,5 +696,43 @@ fn layout(temp: &[TempNode], triangle_order: &[u32], ordering: ChildOrdering) ->
         nodes,
         triangle_order: triangle_order.to_vec(),
         depth,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::test_support::TestRng;
+
+    /// The partition's float compare sends a prim left exactly when its bin lies below the
+    /// plane's, and the vector binning finds the scalar bins, on random centroids of random
+    /// node extents (centroids at bin edges and at the top of the range included).
+    #[test]
+    fn bins_and_partition_compare_agree() {
+        let mut rng = TestRng::new(31);
+        for round in 0..50_000 {
+            let min = rng.range(-1e3, 1e3);
+            let extent = rng.range(1e-6, 1e3);
+            let scale = BINS as f32 / extent;
+            let center = match round % 4 {
+                0 => min + extent,
+                1 => min + rng.range(0.0, BINS as f32).floor() / scale,
+                _ => min + rng.range(0.0, extent),
+            };
+            if center < min {
+                continue;
+            }
+            let bin = bin_of(center, min, scale);
+            let q = (center - min) * scale;
+            for plane in 1..BINS {
+                assert_eq!(
+                    bin < plane,
+                    q < plane as f32,
+                    "{center} {min} {scale} {plane}"
+                );
+            }
+            let lanes = bins_of(Vec3A::splat(center), Vec3A::splat(min), Vec3A::splat(scale));
+            assert_eq!(lanes, [bin; 3]);
+        }
     }
 }
