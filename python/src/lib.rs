@@ -95,6 +95,21 @@ impl Scene {
             .map_err(value_error)?;
         self.geometries.push(tree).map_err(value_error)
     }
+
+    /// Runs `query` on the rays of `rays` over `[tnear, tfar]`, on `nthreads`, the GIL
+    /// released; the library's errors as `ValueError`.
+    fn query<T: Send>(
+        &self,
+        py: Python<'_>,
+        (rays, tnear, tfar): (&PyReadonlyArray2<'_, f32>, &LimitArg<'_>, &LimitArg<'_>),
+        nthreads: usize,
+        query: impl FnOnce(&Geometries, &Rays) -> Result<T, String> + Send,
+    ) -> PyResult<T> {
+        let rays = self::rays(rays, tnear, tfar)?;
+        let geometries = &self.geometries;
+        let answer = py.detach(|| threads::run(nthreads, || query(geometries, &rays)))?;
+        answer.map_err(value_error)
+    }
 }
 
 #[pymethods]
@@ -176,10 +191,9 @@ impl Scene {
         tfar: LimitArg<'py>,
         nthreads: usize,
     ) -> PyResult<Bound<'py, PyArray1<bool>>> {
-        let rays = self::rays(&rays, &tnear, &tfar)?;
-        let geometries = &self.geometries;
-        let answer = py.detach(|| threads::run(nthreads, || geometries.occluded(&rays)))?;
-        Ok(PyArray1::from_vec(py, answer.map_err(value_error)?))
+        let arrays = (&rays, &tnear, &tfar);
+        let answer = self.query(py, arrays, nthreads, |g, rays| g.occluded(rays))?;
+        Ok(PyArray1::from_vec(py, answer))
     }
 
     /// The number of hits of each ray in its range.
@@ -191,10 +205,9 @@ impl Scene {
         tfar: LimitArg<'py>,
         nthreads: usize,
     ) -> PyResult<Bound<'py, PyArray1<i32>>> {
-        let rays = self::rays(&rays, &tnear, &tfar)?;
-        let geometries = &self.geometries;
-        let answer = py.detach(|| threads::run(nthreads, || geometries.count(&rays)))?;
-        Ok(PyArray1::from_vec(py, answer.map_err(value_error)?))
+        let arrays = (&rays, &tnear, &tfar);
+        let answer = self.query(py, arrays, nthreads, |g, rays| g.count(rays))?;
+        Ok(PyArray1::from_vec(py, answer))
     }
 
     /// Every hit of every ray, flat: splits, ray ids, geometry ids, triangle ids, `(u, v)`
@@ -215,10 +228,8 @@ impl Scene {
         Bound<'py, PyArray1<f32>>,
         Bound<'py, PyArray1<f32>>,
     )> {
-        let rays = self::rays(&rays, &tnear, &tfar)?;
-        let geometries = &self.geometries;
-        let answer = py.detach(|| threads::run(nthreads, || geometries.list(&rays)))?;
-        let l = answer.map_err(value_error)?;
+        let arrays = (&rays, &tnear, &tfar);
+        let l = self.query(py, arrays, nthreads, |g, rays| g.list(rays))?;
         Ok((
             PyArray1::from_vec(py, l.splits),
             PyArray1::from_vec(py, l.ray),
