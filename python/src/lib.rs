@@ -177,8 +177,8 @@ impl Scene {
             PyArray1::from_vec(py, c.t),
             PyArray1::from_vec(py, c.geometry),
             PyArray1::from_vec(py, c.primitive),
-            PyArray1::from_vec(py, c.uv),
-            PyArray1::from_vec(py, c.normal),
+            PyArray1::from_vec(py, c.uv.into_flattened()),
+            PyArray1::from_vec(py, c.normal.into_flattened()),
         ))
     }
 

@@ -70,29 +70,25 @@ impl<'a> Rays<'a> {
     }
 
     /// Calls `f(start, rays)` on consecutive blocks of the rays (`rays[k]` is ray `start + k`),
-    /// each converted on the current pool and checked first: the first ray that can hit
-    /// nothing stops the walk with its index and reason (`Ray::validate`).
-    pub fn for_each_block(&self, mut f: impl FnMut(usize, &[Ray])) -> Result<(), String> {
-        let mut block = Vec::with_capacity(self.len().min(BLOCK));
+    /// each converted into `block` on the current pool and checked first: the first ray that
+    /// can hit nothing stops the walk with its index and reason (`Ray::validate`).
+    pub fn for_each_block(
+        &self,
+        block: &mut Vec<Ray>,
+        mut f: impl FnMut(usize, &[Ray]),
+    ) -> Result<(), String> {
         for start in (0..self.len()).step_by(BLOCK) {
             let end = (start + BLOCK).min(self.len());
             block.clear();
-            block.resize(end - start, Ray::new(Vec3::ZERO, Vec3::ZERO));
-            block
-                .par_chunks_mut(CHUNK)
-                .enumerate()
-                .for_each(|(chunk, rays)| {
-                    let first = start + chunk * CHUNK;
-                    for (k, ray) in rays.iter_mut().enumerate() {
-                        *ray = self.ray(first + k);
-                    }
-                });
+            // Written in place by the pool's threads: no pass of one thread over the block.
+            let rays = (start..end).into_par_iter().with_min_len(CHUNK);
+            block.par_extend(rays.map(|i| self.ray(i)));
             if let Some(k) = block.par_iter().position_first(|r| !r.is_valid())
                 && let Err(why) = block[k].validate()
             {
                 return Err(format!("ray {}: {why}", start + k));
             }
-            f(start, &block);
+            f(start, block);
         }
         Ok(())
     }

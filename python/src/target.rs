@@ -2,12 +2,12 @@
 //! [`Scene`] whose instances are the geometries (identity instances for added meshes; a loaded
 //! cooked scene keeps its own). [`Target::structure`] is the one dispatch over the three.
 
-use std::sync::OnceLock;
+use std::sync::{Mutex, OnceLock};
 
 use raybatch::glam::{DVec3, Vec3};
 use raybatch::scene::{InstanceDesc, Rigid};
 use raybatch::{
-    AnyAccel, BatchQueries, CookError, Footprint, Hit, Kernel, RayQueries, Scene, SceneError,
+    AnyAccel, BatchQueries, CookError, Footprint, Hit, Kernel, Ray, RayQueries, Scene, SceneError,
 };
 use rayon::prelude::*;
 
@@ -44,6 +44,19 @@ struct Place {
 pub struct Geometries {
     target: Target,
     normals: Vec<OnceLock<Vec<Vec3>>>,
+    /// Buffers kept between queries (see [`Scratch`]).
+    scratch: Mutex<Scratch>,
+}
+
+/// A query's working buffers: the rays converted from NumPy's rows and the closest hits.
+/// Kept between queries, because a block of a million rays takes 52 MB, which the allocator
+/// would otherwise map afresh and the kernel zero at every call (a third of a closest-hit
+/// query's time on a mesh that fits the caches). A query that finds them in use (another
+/// Python thread querying the same scene) makes its own.
+#[derive(Default)]
+struct Scratch {
+    rays: Vec<Ray>,
+    hits: Vec<Option<Hit>>,
 }
 
 /// Closest hits: per ray `t`, geometry, triangle, `(u, v)` and, if asked, the world normal.
@@ -51,8 +64,8 @@ pub struct Closest {
     pub t: Vec<f32>,
     pub geometry: Vec<u32>,
     pub primitive: Vec<u32>,
-    pub uv: Vec<f32>,
-    pub normal: Vec<f32>,
+    pub uv: Vec<[f32; 2]>,
+    pub normal: Vec<[f32; 3]>,
 }
 
 /// Every hit of every ray: ray `i`'s are `splits[i]..splits[i + 1]` of the flat arrays, by
@@ -80,7 +93,20 @@ impl Geometries {
             Target::Many(scene) => scene.meshes().len(),
         };
         let normals = (0..meshes).map(|_| OnceLock::new()).collect();
-        Self { target, normals }
+        let scratch = Mutex::default();
+        Self {
+            target,
+            normals,
+            scratch,
+        }
+    }
+
+    /// Runs `f` on the scene's buffers, or on new ones while another query holds them.
+    fn with_scratch<R>(&self, f: impl FnOnce(&mut Scratch) -> R) -> R {
+        match self.scratch.try_lock() {
+            Ok(mut scratch) => f(&mut scratch),
+            Err(_) => f(&mut Scratch::default()),
+        }
     }
 
     /// The geometries of a cooked file's bytes: a structure (one geometry) or a scene.
@@ -211,56 +237,68 @@ impl Geometries {
     pub fn closest(&self, rays: &Rays, normals: Option<&[&[Vec3]]>) -> Result<Closest, String> {
         let n = rays.len();
         let mut out = Closest {
-            t: vec![f32::INFINITY; n],
-            geometry: vec![INVALID_ID; n],
-            primitive: vec![INVALID_ID; n],
-            uv: vec![0.0; 2 * n],
-            normal: vec![0.0; if normals.is_some() { 3 * n } else { 0 }],
+            t: Vec::with_capacity(n),
+            geometry: Vec::with_capacity(n),
+            primitive: Vec::with_capacity(n),
+            uv: Vec::with_capacity(n),
+            normal: Vec::with_capacity(if normals.is_some() { n } else { 0 }),
         };
-        let mut hits = Vec::new();
-        rays.for_each_block(|start, block| {
-            let Some(structure) = self.structure() else {
-                return;
-            };
-            hits.clear();
-            hits.resize(block.len(), None);
-            // The lengths agree, the batch's one error.
-            let _ = structure.cast_ray_batch(block, &mut hits);
-            for (k, hit) in hits.iter().enumerate() {
-                if let Some(hit) = hit {
-                    self.write_closest(&mut out, start + k, hit, normals);
+        self.with_scratch(|Scratch { rays: block, hits }| {
+            rays.for_each_block(block, |_, block| {
+                hits.clear();
+                hits.par_extend(rayon::iter::repeat_n(None, block.len()));
+                if let Some(structure) = self.structure() {
+                    // The lengths agree, the batch's one error.
+                    let _ = structure.cast_ray_batch(block, hits);
                 }
-            }
+                self.append_closest(&mut out, hits, normals);
+            })
         })?;
         Ok(out)
     }
 
-    fn write_closest(&self, out: &mut Closest, i: usize, hit: &Hit, normals: Option<&[&[Vec3]]>) {
-        let place = self.place(hit.triangle);
-        out.t[i] = hit.t;
-        out.geometry[i] = place.geometry;
-        out.primitive[i] = place.primitive;
-        out.uv[2 * i..2 * i + 2].copy_from_slice(&[hit.u, hit.v]);
+    /// Appends the answers of `hits` to `out`, each array filled on the current pool (a
+    /// pass per array, so that no part of the answer is written by one thread alone).
+    fn append_closest(&self, out: &mut Closest, hits: &[Option<Hit>], normals: Option<&[&[Vec3]]>) {
+        let each = || hits.par_iter().with_min_len(CHUNK);
+        out.t
+            .par_extend(each().map(|h| h.map_or(f32::INFINITY, |h| h.t)));
+        let geometry = |h: &Option<Hit>| h.map_or(INVALID_ID, |h| self.place(h.triangle).geometry);
+        out.geometry.par_extend(each().map(geometry));
+        let primitive =
+            |h: &Option<Hit>| h.map_or(INVALID_ID, |h| self.place(h.triangle).primitive);
+        out.primitive.par_extend(each().map(primitive));
+        out.uv
+            .par_extend(each().map(|h| h.map_or([0.0; 2], |h| [h.u, h.v])));
         if let Some(tables) = normals {
-            let local = tables
-                .get(place.mesh)
-                .and_then(|t| t.get(place.primitive as usize));
-            let world = place
-                .transform
-                .vector_to_world(local.copied().unwrap_or(Vec3::ZERO));
-            out.normal[3 * i..3 * i + 3].copy_from_slice(&world.to_array());
+            let normal = |h: &Option<Hit>| h.map_or([0.0; 3], |h| self.world_normal(&h, tables));
+            out.normal.par_extend(each().map(normal));
         }
+    }
+
+    /// The normal of `hit`'s triangle in world space, from the meshes' unit normal `tables`.
+    fn world_normal(&self, hit: &Hit, tables: &[&[Vec3]]) -> [f32; 3] {
+        let place = self.place(hit.triangle);
+        let local = tables
+            .get(place.mesh)
+            .and_then(|t| t.get(place.primitive as usize));
+        let world = place
+            .transform
+            .vector_to_world(local.copied().unwrap_or(Vec3::ZERO));
+        world.to_array()
     }
 
     /// Whether each ray hits anything in its range.
     pub fn occluded(&self, rays: &Rays) -> Result<Vec<bool>, String> {
         let mut out = vec![false; rays.len()];
-        rays.for_each_block(|start, block| {
-            if let Some(structure) = self.structure() {
-                let answers = &mut out[start..start + block.len()];
-                // The lengths agree, the batch's one error.
-                let _ = structure.occluded_batch(block, answers);
-            }
+        self.with_scratch(|scratch| {
+            rays.for_each_block(&mut scratch.rays, |start, block| {
+                if let Some(structure) = self.structure() {
+                    let answers = &mut out[start..start + block.len()];
+                    // The lengths agree, the batch's one error.
+                    let _ = structure.occluded_batch(block, answers);
+                }
+            })
         })?;
         Ok(out)
     }
@@ -268,18 +306,20 @@ impl Geometries {
     /// The number of hits of each ray.
     pub fn count(&self, rays: &Rays) -> Result<Vec<i32>, String> {
         let mut out = vec![0; rays.len()];
-        rays.for_each_block(|start, block| {
-            let Some(structure) = self.structure() else {
-                return;
-            };
-            let counts = &mut out[start..start + block.len()];
-            counts
-                .par_iter_mut()
-                .zip(block.par_iter())
-                .with_min_len(CHUNK)
-                .for_each(|(count, ray)| {
-                    structure.for_each_hit_with(ray, Kernel::Watertight, &mut |_| *count += 1)
-                });
+        self.with_scratch(|scratch| {
+            rays.for_each_block(&mut scratch.rays, |start, block| {
+                let Some(structure) = self.structure() else {
+                    return;
+                };
+                let counts = &mut out[start..start + block.len()];
+                counts
+                    .par_iter_mut()
+                    .zip(block.par_iter())
+                    .with_min_len(CHUNK)
+                    .for_each(|(count, ray)| {
+                        structure.for_each_hit_with(ray, Kernel::Watertight, &mut |_| *count += 1)
+                    });
+            })
         })?;
         Ok(out)
     }
@@ -292,26 +332,28 @@ impl Geometries {
             ..List::default()
         };
         let mut failed = None;
-        rays.for_each_block(|start, block| {
-            per_ray.clear();
-            if let Some(structure) = self.structure() {
-                let hits_of = |ray| {
-                    let mut hits = Vec::new();
-                    structure.for_each_hit_with(ray, Kernel::Watertight, &mut |h| hits.push(h));
-                    Hit::sort(&mut hits);
-                    hits
-                };
-                block
-                    .par_iter()
-                    .with_min_len(CHUNK)
-                    .map(hits_of)
-                    .collect_into_vec(&mut per_ray);
-            } else {
-                per_ray.resize(block.len(), Vec::new());
-            }
-            if failed.is_none() {
-                failed = self.append(&mut out, start, &per_ray).err();
-            }
+        self.with_scratch(|scratch| {
+            rays.for_each_block(&mut scratch.rays, |start, block| {
+                per_ray.clear();
+                if let Some(structure) = self.structure() {
+                    let hits_of = |ray| {
+                        let mut hits = Vec::new();
+                        structure.for_each_hit_with(ray, Kernel::Watertight, &mut |h| hits.push(h));
+                        Hit::sort(&mut hits);
+                        hits
+                    };
+                    block
+                        .par_iter()
+                        .with_min_len(CHUNK)
+                        .map(hits_of)
+                        .collect_into_vec(&mut per_ray);
+                } else {
+                    per_ray.resize(block.len(), Vec::new());
+                }
+                if failed.is_none() {
+                    failed = self.append(&mut out, start, &per_ray).err();
+                }
+            })
         })?;
         failed.map_or(Ok(out), Err)
     }
