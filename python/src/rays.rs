@@ -3,6 +3,8 @@
 //! block at a time and checked: a ray that can hit nothing is refused by its index instead of
 //! missing (Python callers asked for `ValueError` on NaN input).
 
+use std::sync::atomic::{AtomicUsize, Ordering};
+
 use raybatch::Ray;
 use raybatch::glam::Vec3;
 use rayon::prelude::*;
@@ -80,13 +82,22 @@ impl<'a> Rays<'a> {
         for start in (0..self.len()).step_by(BLOCK) {
             let end = (start + BLOCK).min(self.len());
             block.clear();
-            // Written in place by the pool's threads: no pass of one thread over the block.
+            // Written in place by the pool's threads, each ray checked as it is made (one
+            // pass over the block, none by one thread alone); the lowest bad index wins.
+            let first_bad = AtomicUsize::new(usize::MAX);
             let rays = (start..end).into_par_iter().with_min_len(CHUNK);
-            block.par_extend(rays.map(|i| self.ray(i)));
-            if let Some(k) = block.par_iter().position_first(|r| !r.is_valid())
-                && let Err(why) = block[k].validate()
+            block.par_extend(rays.map(|i| {
+                let ray = self.ray(i);
+                if !ray.is_valid() {
+                    first_bad.fetch_min(i, Ordering::Relaxed);
+                }
+                ray
+            }));
+            let first_bad = first_bad.into_inner();
+            if first_bad != usize::MAX
+                && let Err(why) = block[first_bad - start].validate()
             {
-                return Err(format!("ray {}: {why}", start + k));
+                return Err(format!("ray {first_bad}: {why}"));
             }
             f(start, block);
         }

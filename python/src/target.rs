@@ -236,43 +236,62 @@ impl Geometries {
     /// normals from `normals` ([`Geometries::normal_tables`]) if given.
     pub fn closest(&self, rays: &Rays, normals: Option<&[&[Vec3]]>) -> Result<Closest, String> {
         let n = rays.len();
+        // Zeroed allocations cost nothing until written; the one pass per block writes all.
         let mut out = Closest {
-            t: Vec::with_capacity(n),
-            geometry: Vec::with_capacity(n),
-            primitive: Vec::with_capacity(n),
-            uv: Vec::with_capacity(n),
-            normal: Vec::with_capacity(if normals.is_some() { n } else { 0 }),
+            t: vec![0.0; n],
+            geometry: vec![0; n],
+            primitive: vec![0; n],
+            uv: vec![[0.0; 2]; n],
+            normal: vec![[0.0; 3]; if normals.is_some() { n } else { 0 }],
         };
         self.with_scratch(|Scratch { rays: block, hits }| {
-            rays.for_each_block(block, |_, block| {
-                hits.clear();
-                hits.par_extend(rayon::iter::repeat_n(None, block.len()));
+            rays.for_each_block(block, |start, block| {
+                // Every entry is written by the batch (a miss as `None`).
+                hits.resize(block.len(), None);
                 if let Some(structure) = self.structure() {
                     // The lengths agree, the batch's one error.
                     let _ = structure.cast_ray_batch(block, hits);
+                } else {
+                    hits.fill(None);
                 }
-                self.append_closest(&mut out, hits, normals);
+                self.write_closest(&mut out, start, hits, normals);
             })
         })?;
         Ok(out)
     }
 
-    /// Appends the answers of `hits` to `out`, each array filled on the current pool (a
-    /// pass per array, so that no part of the answer is written by one thread alone).
-    fn append_closest(&self, out: &mut Closest, hits: &[Option<Hit>], normals: Option<&[&[Vec3]]>) {
-        let each = || hits.par_iter().with_min_len(CHUNK);
-        out.t
-            .par_extend(each().map(|h| h.map_or(f32::INFINITY, |h| h.t)));
-        let geometry = |h: &Option<Hit>| h.map_or(INVALID_ID, |h| self.place(h.triangle).geometry);
-        out.geometry.par_extend(each().map(geometry));
-        let primitive =
-            |h: &Option<Hit>| h.map_or(INVALID_ID, |h| self.place(h.triangle).primitive);
-        out.primitive.par_extend(each().map(primitive));
-        out.uv
-            .par_extend(each().map(|h| h.map_or([0.0; 2], |h| [h.u, h.v])));
+    /// Writes the answers of `hits` (rays `start..`) into `out`, in one pass on the current
+    /// pool (and one more for the normals, if asked).
+    fn write_closest(
+        &self,
+        out: &mut Closest,
+        start: usize,
+        hits: &[Option<Hit>],
+        normals: Option<&[&[Vec3]]>,
+    ) {
+        let end = start + hits.len();
+        let rows = out.t[start..end]
+            .par_iter_mut()
+            .zip(&mut out.geometry[start..end])
+            .zip(&mut out.primitive[start..end])
+            .zip(&mut out.uv[start..end])
+            .zip(hits);
+        rows.with_min_len(CHUNK)
+            .for_each(|((((t, geometry), primitive), uv), hit)| match hit {
+                Some(hit) => {
+                    let place = self.place(hit.triangle);
+                    (*t, *geometry, *primitive) = (hit.t, place.geometry, place.primitive);
+                    *uv = [hit.u, hit.v];
+                }
+                None => (*t, *geometry, *primitive) = (f32::INFINITY, INVALID_ID, INVALID_ID),
+            });
         if let Some(tables) = normals {
-            let normal = |h: &Option<Hit>| h.map_or([0.0; 3], |h| self.world_normal(&h, tables));
-            out.normal.par_extend(each().map(normal));
+            let rows = out.normal[start..end].par_iter_mut().zip(hits);
+            rows.with_min_len(CHUNK).for_each(|(normal, hit)| {
+                if let Some(hit) = hit {
+                    *normal = self.world_normal(hit, tables);
+                }
+            });
         }
     }
 
