@@ -57,6 +57,17 @@ def test_bad_rays_are_value_errors(scene, rays, message, query):
         getattr(scene, query)(rays)
 
 
+@pytest.mark.parametrize("nthreads", [1, 2])
+@pytest.mark.parametrize("query", ["cast_rays", "test_occlusions", "count_intersections", "list_intersections"])
+def test_the_first_bad_ray_is_named_whatever_the_thread_that_meets_it(scene, query, nthreads):
+    rays = np.repeat(RAY, 200_000, axis=0)
+    rays[150_000, 0] = np.nan
+    rays[70_001, 5] = 0.0
+    rays[70_001, 3:5] = 0.0
+    with pytest.raises(ValueError, match="ray 70001: ray direction is zero"):
+        getattr(scene, query)(rays, nthreads=nthreads)
+
+
 @pytest.mark.parametrize(
     "options, message",
     [
