@@ -323,6 +323,19 @@ impl AnyAccel {
         exists.then(|| self.corners(id))
     }
 
+    /// Runs `query`'s walk on the structure, or says it has none.
+    pub(crate) fn walk_shape<Q: crate::shape::BoxQuery>(
+        &self,
+        query: &mut Q,
+    ) -> Result<(), crate::shape::ShapeError> {
+        use crate::shape::ShapeWalk;
+        let walked = each_tree!(&self.tree, (_kind, tree) => tree.walk_shape(query));
+        let kind = self.kind();
+        walked
+            .then_some(())
+            .ok_or(crate::shape::ShapeError::Unsupported { kind })
+    }
+
     /// The corners of triangle `id` of the structure's mesh (an id its queries report).
     pub(crate) fn corners(&self, id: u32) -> [glam::Vec3; 3] {
         each_tree!(&self.tree, (_kind, tree) => crate::accel::Corners::corners(tree, id))

@@ -54,6 +54,7 @@ mod permuted;
 mod prefetch;
 mod query;
 pub mod scene;
+pub mod shape;
 #[cfg(test)]
 mod test_support;
 mod traverse;

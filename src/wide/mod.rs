@@ -36,6 +36,7 @@
 //! every other structure, bit for bit.
 
 pub(crate) mod blocks;
+mod boxes;
 pub(crate) mod collapse;
 mod cook;
 pub(crate) mod dispatch;

@@ -1,0 +1,90 @@
+//! What a structure must offer to answer shape queries: a walk that enters every node whose
+//! box the query may touch and offers it the triangles of the leaves it reaches.
+
+use glam::Vec3;
+
+use crate::bvh::build::MAX_DEPTH;
+use crate::bvh::nodes::NodeFormat;
+use crate::bvh::{AabbTree, Bvh};
+use crate::geom::Aabb;
+use crate::grid::{SpatialHash, UniformGrid};
+use crate::kdtree::KdTree;
+use crate::permuted::Permuted;
+use crate::wide::{NodeKind, WideBvh};
+use crate::zbt::{HybridTree, ZeroByteTree};
+
+/// One shape query during a walk.
+pub(crate) trait BoxQuery {
+    /// Whether the query may touch anything inside `bounds` (false is a promise: nothing in
+    /// the box can answer it). An empty box must give false.
+    fn enters(&self, bounds: &Aabb) -> bool;
+
+    /// Tests triangle `id` of corners `corners`; true ends the walk.
+    fn triangle(&mut self, id: u32, corners: &[Vec3; 3]) -> bool;
+}
+
+/// A structure's walk for shape queries, if it has one.
+pub(crate) trait ShapeWalk {
+    /// Offers `query` every triangle of every leaf whose box (and whose ancestors' boxes) it
+    /// enters, each once, until it asks to stop; false if the structure has no such walk.
+    fn walk_shape<Q: BoxQuery>(&self, query: &mut Q) -> bool {
+        let _ = query;
+        false
+    }
+}
+
+impl<N: NodeKind> ShapeWalk for WideBvh<N> {
+    fn walk_shape<Q: BoxQuery>(&self, query: &mut Q) -> bool {
+        self.walk_boxes(query);
+        true
+    }
+}
+
+impl<N: NodeFormat> ShapeWalk for AabbTree<N> {
+    fn walk_shape<Q: BoxQuery>(&self, query: &mut Q) -> bool {
+        walk_binary(self, query);
+        true
+    }
+}
+
+// Their boxes are recomputed (the zero-byte trees) or they are no trees: not yet walked.
+impl ShapeWalk for Permuted<ZeroByteTree> {}
+impl ShapeWalk for Permuted<HybridTree> {}
+impl ShapeWalk for UniformGrid {}
+impl ShapeWalk for KdTree {}
+impl ShapeWalk for SpatialHash {}
+
+/// The walk over a binary tree: a node's triangles, then its children the query enters.
+fn walk_binary<T: Bvh>(tree: &T, query: &mut impl BoxQuery) {
+    if tree.is_empty() {
+        return;
+    }
+    let mut cache = T::Cache::default();
+    let root = tree.root_bounds(&mut cache);
+    if !query.enters(&root) {
+        return;
+    }
+    // A pop pushes at most two children, and a path is at most `MAX_DEPTH` nodes long.
+    let mut stack = [(0u32, T::keep(&root)); MAX_DEPTH + 2];
+    let mut len = 1;
+    while len > 0 {
+        len -= 1;
+        let (index, kept) = stack[len];
+        let node = tree.node(index);
+        for slot in node.first..node.first + node.count {
+            let (id, corners) = tree.triangle(slot);
+            if query.triangle(id, &corners) {
+                return;
+            }
+        }
+        if node.has_children() {
+            let boxes = tree.child_bounds(&node, &kept, &mut cache);
+            for (&child, bounds) in node.children.iter().zip(boxes) {
+                if query.enters(&bounds) {
+                    stack[len] = (child, T::keep(&bounds));
+                    len += 1;
+                }
+            }
+        }
+    }
+}

@@ -1,0 +1,45 @@
+//! The wide trees' walk for the shape queries: every child whose box the query may touch is
+//! entered, in no particular order (see [`crate::shape`]).
+
+use super::{NodeKind, WideBvh};
+use crate::bvh::build::MAX_DEPTH;
+use crate::bvh::nodes::leaf_word;
+use crate::shape::BoxQuery;
+
+/// Pending children: a pop pushes at most a node's width, and a path is at most
+/// [`MAX_DEPTH`] nodes long.
+const STACK: usize = 8 * (MAX_DEPTH + 1);
+
+impl<N: NodeKind> WideBvh<N> {
+    /// Offers `query` every triangle of a leaf whose box, and whose ancestors' boxes, it
+    /// enters, each triangle once, until it asks to stop.
+    pub(crate) fn walk_boxes(&self, query: &mut impl BoxQuery) {
+        if self.is_empty() || !query.enters(&self.root_bounds) {
+            return;
+        }
+        let mut stack = [0u32; STACK];
+        let mut len = 1;
+        stack[0] = self.root;
+        while len > 0 {
+            len -= 1;
+            let item = stack[len];
+            if leaf_word::is_leaf(item) {
+                let (_, count) = leaf_word::unpack(item);
+                for k in 0..count {
+                    let (id, corners) = self.triangle(item, k);
+                    if query.triangle(id, &corners) {
+                        return;
+                    }
+                }
+                continue;
+            }
+            let node = &self.nodes[item as usize];
+            for slot in 0..node.used_slots() {
+                if query.enters(&node.child_bounds(slot)) {
+                    stack[len] = node.child(slot);
+                    len += 1;
+                }
+            }
+        }
+    }
+}
