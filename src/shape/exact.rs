@@ -4,7 +4,8 @@
 //! The inputs are `f32`, so every difference of two coordinates is exact in `f64` and each
 //! test rounds only in its products and square roots: about 1e-15 of the scene's size, far
 //! below the `f32` spacing of the inputs. Results may still differ from exact arithmetic by
-//! that much where a contact is grazing (docs/shapes.md states and tests the bound).
+//! that much where a contact is grazing: the tests hold sweep times to within 1e-7 of a
+//! search over time on shapes and motions of unit size, and distances to within 1e-9.
 //!
 //! A sweep's first contact is that of a ray (the motion, from the origin) with the triangle
 //! grown by the shape: the Minkowski sum of the triangle and the capsule's reversed segment

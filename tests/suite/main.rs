@@ -29,6 +29,7 @@ mod scene_edits;
 mod scene_filters;
 mod scene_resolved;
 mod scene_vs_brute_force;
+mod shape_queries;
 mod small_thread_stack;
 mod typed_api;
 mod watertight;
