@@ -7,3 +7,4 @@ pub mod embree_ffi;
 pub mod engines;
 pub mod race;
 pub mod rays;
+pub mod shape_race;

@@ -26,7 +26,7 @@ use raybatch_peers::{embree_ffi, race, rays};
 
 const USAGE: &str = "\
 usage: peers [--mesh FILE.obj | --scene NAME] [--rays N] [--sets A,B,..] [--seed S] [--runs R]
-             [--race R | --build-race R]
+             [--race R | --build-race R | --shape-race R]
 
   --mesh FILE.obj  triangle mesh, treated as one object (default: data/stanford-bunny.obj of
                    the raybatch crate)
@@ -46,7 +46,10 @@ usage: peers [--mesh FILE.obj | --scene NAME] [--rays N] [--sets A,B,..] [--seed
                    a machine whose speed drifts; --runs is not used
   --build-race R   instead of any ray, the build on every core: Embree at qualities MEDIUM
                    (its default) and HIGH against raybatch's default parallel build of
-                   AccelKind::for_mesh, bvh8, bvh4 and aabb, in turn for R rounds, best kept";
+                   AccelKind::for_mesh, bvh8, bvh4 and aabb, in turn for R rounds, best kept
+  --shape-race R   instead of any ray, shape queries one at a time (sphere and capsule
+                   overlaps and sweeps, --rays of each, at most 200000) against parry3d's
+                   TriMesh, in turn for R rounds, best kept, and their agreement";
 
 struct Args {
     mesh: PathBuf,
@@ -60,6 +63,8 @@ struct Args {
     race: Option<usize>,
     /// Rounds of the build race, if one was asked for (`--build-race R`).
     build_race: Option<usize>,
+    /// Rounds of the shape race, if one was asked for (`--shape-race R`).
+    shape_race: Option<usize>,
 }
 
 fn parse_args() -> Result<Args, String> {
@@ -75,6 +80,7 @@ fn parse_args() -> Result<Args, String> {
         runs: 3,
         race: None,
         build_race: None,
+        shape_race: None,
     };
     let mut it = std::env::args().skip(1);
     while let Some(flag) = it.next() {
@@ -105,6 +111,7 @@ fn parse_args() -> Result<Args, String> {
             "--runs" => args.runs = (number(&value)? as usize).max(1),
             "--race" => args.race = Some((number(&value)? as usize).max(1)),
             "--build-race" => args.build_race = Some((number(&value)? as usize).max(1)),
+            "--shape-race" => args.shape_race = Some((number(&value)? as usize).max(1)),
             _ => return Err(format!("unknown argument {flag}")),
         }
     }
@@ -158,6 +165,17 @@ fn run(args: &Args) -> Result<(), String> {
             mesh.triangle_count()
         );
         println!("{}", raybatch_peers::build_race::build_race(&mesh, rounds)?);
+        return Ok(());
+    }
+    if let Some(rounds) = args.shape_race {
+        let count = args.rays.min(200_000);
+        println!(
+            "# Shape queries against parry3d\n\nMesh `{name}` ({} triangles); one query at a \
+             time, one thread; best of {rounds} rounds taking turns.\n",
+            mesh.triangle_count()
+        );
+        let table = raybatch_peers::shape_race::shape_race(&mesh, count, rounds, args.seed)?;
+        println!("{table}");
         return Ok(());
     }
     let device = embree_ffi::Device::new("threads=1")?;

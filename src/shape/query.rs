@@ -146,7 +146,10 @@ impl<F: FnMut(u32) -> bool> BoxQuery for Overlap<'_, F> {
     }
 
     fn triangle(&mut self, id: u32, corners: &[Vec3; 3]) -> bool {
-        self.shape.overlaps_triangle(corners) && (self.found)(id)
+        // The triangle's own box first: most of a leaf's triangles fail it.
+        self.enters(&Aabb::from_points(corners))
+            && self.shape.overlaps_triangle(corners)
+            && (self.found)(id)
     }
 }
 
@@ -213,6 +216,11 @@ impl BoxQuery for Sweep<'_> {
     }
 
     fn triangle(&mut self, id: u32, corners: &[Vec3; 3]) -> bool {
+        // The triangle's own box first (and against the best contact so far): the exact
+        // test costs dozens of box tests.
+        if !self.enters(&Aabb::from_points(corners)) {
+            return false;
+        }
         if let Some(found) = self.shape.sweep_triangle(self.motion, id, corners)
             && self.best.as_ref().is_none_or(|b| earlier(&found, b))
         {
