@@ -75,6 +75,14 @@ macro_rules! structures {
                 }
             }
 
+            /// Whether structures of this kind answer shape queries ([`crate::shape`]; the
+            /// others return [`crate::shape::ShapeError::Unsupported`]).
+            pub fn answers_shapes(self) -> bool {
+                match self {
+                    $(AccelKind::$kind => <$tree as crate::shape::ShapeWalk>::WALKS,)+
+                }
+            }
+
             /// The kind's number in cooked files (`crate::cook`): fixed forever, whatever
             /// the list's order.
             pub(crate) fn code(self) -> u32 {
@@ -329,11 +337,12 @@ impl AnyAccel {
         query: &mut Q,
     ) -> Result<(), crate::shape::ShapeError> {
         use crate::shape::ShapeWalk;
-        let walked = each_tree!(&self.tree, (_kind, tree) => tree.walk_shape(query));
         let kind = self.kind();
-        walked
-            .then_some(())
-            .ok_or(crate::shape::ShapeError::Unsupported { kind })
+        if !kind.answers_shapes() {
+            return Err(crate::shape::ShapeError::Unsupported { kind });
+        }
+        each_tree!(&self.tree, (_kind, tree) => tree.walk_shape(query));
+        Ok(())
     }
 
     /// The corners of triangle `id` of the structure's mesh (an id its queries report).

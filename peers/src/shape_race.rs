@@ -90,10 +90,7 @@ fn vector(v: Vec3) -> Vector {
 /// The query's shape in parry3d's terms, at the identity.
 fn parry_shape(shape: &Shape) -> Box<dyn parry3d::shape::Shape> {
     match *shape {
-        Shape::Sphere { centre, radius } => {
-            let _ = centre;
-            Box::new(Ball::new(radius))
-        }
+        Shape::Sphere { radius, .. } => Box::new(Ball::new(radius)),
         Shape::Capsule { a, b, radius } => Box::new(Capsule::new(vector(a), vector(b), radius)),
         Shape::Box(_) => unreachable!("no box queries in the race"),
     }

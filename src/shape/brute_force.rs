@@ -3,7 +3,7 @@
 
 use glam::Vec3;
 
-use super::{Contact, Shape, earlier};
+use super::{Contact, Earliest, Shape};
 use crate::mesh::Mesh;
 
 /// The ids of the triangles `shape` overlaps, ascending (the shape is not checked).
@@ -18,15 +18,13 @@ pub fn overlapping(mesh: &Mesh, shape: &Shape) -> Vec<u32> {
 /// inputs are not checked, and the ray engine's answer for a sphere of radius 0 is not used:
 /// this is the `f64` test on every triangle).
 pub fn sweep(mesh: &Mesh, shape: &Shape, motion: Vec3) -> Option<Contact> {
-    let mut best: Option<(f64, Contact)> = None;
+    let mut best = None;
     for (id, corners) in triangles(mesh) {
-        if let Some(found) = shape.sweep_triangle(motion, id, &corners)
-            && best.as_ref().is_none_or(|b| earlier(&found, b))
-        {
-            best = Some(found);
+        if let Some(t) = shape.sweep_time(motion, &corners) {
+            Earliest::keep(&mut best, t, id, &corners);
         }
     }
-    best.map(|(_, contact)| contact)
+    best.map(|first| shape.contact(motion, &first))
 }
 
 /// Every triangle a tree holds: the non-degenerate ones.

@@ -78,11 +78,19 @@ pub enum ShapeError {
 impl std::fmt::Display for ShapeError {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         match self {
-            ShapeError::Unsupported { kind } => write!(
-                f,
-                "the {} structure does not answer shape queries (aabb, quantized, bvh4, bvh8, bvh4q and bvh8q do)",
-                kind.name()
-            ),
+            ShapeError::Unsupported { kind } => {
+                let answering: Vec<&str> = AccelKind::ALL
+                    .iter()
+                    .filter(|k| k.answers_shapes())
+                    .map(|k| k.name())
+                    .collect();
+                write!(
+                    f,
+                    "the {} structure does not answer shape queries ({} do)",
+                    kind.name(),
+                    answering.join(", ")
+                )
+            }
             ShapeError::Invalid(why) => write!(f, "invalid shape query: {why}"),
         }
     }
@@ -91,29 +99,34 @@ impl std::fmt::Display for ShapeError {
 impl std::error::Error for ShapeError {}
 
 impl Shape {
-    /// The shape as a capsule (a sphere is one with both ends at its centre), if it is one.
-    fn capsule(&self) -> Option<(Vec3, Vec3, f32)> {
+    /// The shape as a capsule's segment ends and radius (a sphere is one with both ends at
+    /// its centre), or the box it is.
+    fn round_or_box(&self) -> Result<(Vec3, Vec3, f32), Aabb> {
         match *self {
-            Shape::Sphere { centre, radius } => Some((centre, centre, radius)),
-            Shape::Capsule { a, b, radius } => Some((a, b, radius)),
-            Shape::Box(_) => None,
+            Shape::Sphere { centre, radius } => Ok((centre, centre, radius)),
+            Shape::Capsule { a, b, radius } => Ok((a, b, radius)),
+            Shape::Box(b) => Err(b),
         }
+    }
+
+    /// The shape as a capsule, if it is round.
+    fn capsule(&self) -> Option<(Vec3, Vec3, f32)> {
+        self.round_or_box().ok()
     }
 
     /// An error unless every coordinate is finite, the radius finite and at least 0, and a
     /// box's minimum at most its maximum.
     pub fn validate(&self) -> Result<(), ShapeError> {
         let finite = |points: &[Vec3]| points.iter().all(|p| p.is_finite());
-        match *self {
-            Shape::Box(b) if !finite(&[b.min, b.max]) => {
+        match self.round_or_box() {
+            Err(b) if !finite(&[b.min, b.max]) => {
                 Err(ShapeError::Invalid("a box corner is NaN or infinite"))
             }
-            Shape::Box(b) if b.min.cmpgt(b.max).any() => {
+            Err(b) if b.min.cmpgt(b.max).any() => {
                 Err(ShapeError::Invalid("a box's minimum exceeds its maximum"))
             }
-            Shape::Box(_) => Ok(()),
-            _ => {
-                let (a, b, radius) = self.capsule().unwrap_or_default();
+            Err(_) => Ok(()),
+            Ok((a, b, radius)) => {
                 if !finite(&[a, b]) {
                     Err(ShapeError::Invalid("a centre or an end is NaN or infinite"))
                 } else if !(radius.is_finite() && radius >= 0.0) {
@@ -129,10 +142,9 @@ impl Shape {
 
     /// The shape's bounding box.
     pub fn bounds(&self) -> Aabb {
-        match *self {
-            Shape::Box(b) => b,
-            _ => {
-                let (a, b, radius) = self.capsule().unwrap_or_default();
+        match self.round_or_box() {
+            Err(b) => b,
+            Ok((a, b, radius)) => {
                 let r = Vec3::splat(radius);
                 Aabb::new(a.min(b) - r, a.max(b) + r)
             }
@@ -142,13 +154,12 @@ impl Shape {
     /// Whether the shape overlaps triangle `corners` (touching counts), decided in `f64`.
     pub fn overlaps_triangle(&self, corners: &[Vec3; 3]) -> bool {
         let t = corners.map(|c| c.as_dvec3());
-        match *self {
-            Shape::Box(b) => {
+        match self.round_or_box() {
+            Err(b) => {
                 let (min, max) = (b.min.as_dvec3(), b.max.as_dvec3());
                 exact::box_overlaps_triangle((min + max) * 0.5, (max - min) * 0.5, t)
             }
-            _ => {
-                let (a, b, r) = self.capsule().unwrap_or_default();
+            Ok((a, b, r)) => {
                 let (on_shape, on_triangle) =
                     exact::closest_segment_triangle(a.as_dvec3(), b.as_dvec3(), t);
                 on_shape.distance_squared(on_triangle) <= f64::from(r) * f64::from(r)
@@ -156,30 +167,66 @@ impl Shape {
         }
     }
 
-    /// The first contact of the shape moved by `motion` with triangle `id` of corners
-    /// `corners`, as an `f64` time (the order of contacts) and the contact; `None` for a box
-    /// (it does not sweep) or no contact in `[0, 1]`.
-    pub(crate) fn sweep_triangle(
-        &self,
-        motion: Vec3,
-        id: u32,
-        corners: &[Vec3; 3],
-    ) -> Option<(f64, Contact)> {
+    /// When the shape moved by `t * motion` first touches triangle `corners`, as an `f64`
+    /// time in `[0, 1]` (the order of contacts); `None` for a box (it does not sweep) or no
+    /// contact.
+    pub(crate) fn sweep_time(&self, motion: Vec3, corners: &[Vec3; 3]) -> Option<f64> {
         let (a, b, r) = self.capsule()?;
-        let (a, b, d, r) = (a.as_dvec3(), b.as_dvec3(), motion.as_dvec3(), f64::from(r));
         let tri = corners.map(|c| c.as_dvec3());
-        let t = exact::sweep_time(a, b, r, d, tri)?;
-        let (on_shape, on_triangle) = exact::closest_segment_triangle(a + d * t, b + d * t, tri);
+        exact::sweep_time(
+            a.as_dvec3(),
+            b.as_dvec3(),
+            f64::from(r),
+            motion.as_dvec3(),
+            tri,
+        )
+    }
+
+    /// The contact of the shape moved by `motion` at the sweep's earliest touch `first`: the
+    /// triangle's point nearest to the shape then, and the direction from it to the shape.
+    /// (`first` comes from [`Shape::sweep_time`], so the shape is round.)
+    fn contact(&self, motion: Vec3, first: &Earliest) -> Contact {
+        let (a, b, _) = self.capsule().unwrap_or_default();
+        let (t, d) = (first.t, motion.as_dvec3());
+        let tri = first.corners.map(|c| c.as_dvec3());
+        let (on_shape, on_triangle) =
+            exact::closest_segment_triangle(a.as_dvec3() + d * t, b.as_dvec3() + d * t, tri);
         let normal = (on_shape - on_triangle)
             .try_normalize()
             .unwrap_or_else(|| facing(tri, d));
-        let contact = Contact {
+        Contact {
             t: t as f32,
-            triangle: id,
+            triangle: first.triangle,
             point: on_triangle.as_vec3(),
             normal: normal.as_vec3(),
-        };
-        Some((t, contact))
+        }
+    }
+}
+
+/// A sweep's earliest touch so far: its `f64` time, triangle and corners. The contact's point
+/// and normal are made once, for the touch that stays earliest ([`Shape::contact`]).
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Earliest {
+    t: f64,
+    triangle: u32,
+    corners: [Vec3; 3],
+}
+
+impl Earliest {
+    /// Keeps the touch of triangle `triangle` at `t` in `best` if it comes first: earlier, or
+    /// as early with a lower id (the tie rule). True if kept.
+    fn keep(best: &mut Option<Earliest>, t: f64, triangle: u32, corners: &[Vec3; 3]) -> bool {
+        let first = best
+            .as_ref()
+            .is_none_or(|b| (t, triangle) < (b.t, b.triangle));
+        if first {
+            *best = Some(Earliest {
+                t,
+                triangle,
+                corners: *corners,
+            });
+        }
+        first
     }
 }
 
@@ -196,12 +243,6 @@ fn check_motion(motion: Vec3) -> Result<(), ShapeError> {
     } else {
         Err(ShapeError::Invalid("the motion is NaN or infinite"))
     }
-}
-
-/// Whether contact `a` (its `f64` time first) comes before `b`: earlier, or as early with a
-/// lower triangle id.
-fn earlier(a: &(f64, Contact), b: &(f64, Contact)) -> bool {
-    (a.0, a.1.triangle) < (b.0, b.1.triangle)
 }
 
 #[cfg(test)]

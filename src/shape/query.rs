@@ -2,7 +2,7 @@
 
 use glam::{DVec3, Vec3};
 
-use super::{BoxQuery, Contact, Shape, ShapeError, check_motion, earlier};
+use super::{BoxQuery, Contact, Earliest, Shape, ShapeError, check_motion};
 use crate::catalog::AnyAccel;
 use crate::geom::{Aabb, Ray};
 use crate::query::RayQueries;
@@ -60,7 +60,7 @@ impl ShapeQueries for AnyAccel {
         }
         let mut query = Sweep::new(shape, motion, false)?;
         self.walk_shape(&mut query)?;
-        Ok(query.best.map(|(_, contact)| contact))
+        Ok(query.best.map(|first| shape.contact(motion, &first)))
     }
 
     fn sweep_blocked(&self, shape: &Shape, motion: Vec3) -> Result<bool, ShapeError> {
@@ -164,7 +164,7 @@ struct Sweep<'s> {
     radius: f64,
     /// Stop at the first contact.
     any: bool,
-    best: Option<(f64, Contact)>,
+    best: Option<Earliest>,
 }
 
 impl<'s> Sweep<'s> {
@@ -198,7 +198,7 @@ impl BoxQuery for Sweep<'_> {
             .max(self.low.abs());
         let grow = self.radius + margin(scale.max_element() + self.radius);
         let (lo, hi) = (min - self.high - grow, max - self.low + grow);
-        let end = self.best.as_ref().map_or(1.0, |b| b.0);
+        let end = self.best.as_ref().map_or(1.0, |b| b.t);
         let d = self.motion.as_dvec3();
         let (mut near, mut far) = (0.0f64, end);
         for axis in 0..3 {
@@ -221,12 +221,9 @@ impl BoxQuery for Sweep<'_> {
         if !self.enters(&Aabb::from_points(corners)) {
             return false;
         }
-        if let Some(found) = self.shape.sweep_triangle(self.motion, id, corners)
-            && self.best.as_ref().is_none_or(|b| earlier(&found, b))
-        {
-            self.best = Some(found);
-            return self.any;
+        match self.shape.sweep_time(self.motion, corners) {
+            Some(t) => Earliest::keep(&mut self.best, t, id, corners) && self.any,
+            None => false,
         }
-        false
     }
 }

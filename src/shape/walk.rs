@@ -25,25 +25,29 @@ pub(crate) trait BoxQuery {
 
 /// A structure's walk for shape queries, if it has one.
 pub(crate) trait ShapeWalk {
+    /// Whether the structure walks ([`crate::AccelKind::answers_shapes`]).
+    const WALKS: bool = false;
+
     /// Offers `query` every triangle of every leaf whose box (and whose ancestors' boxes) it
-    /// enters, each once, until it asks to stop; false if the structure has no such walk.
-    fn walk_shape<Q: BoxQuery>(&self, query: &mut Q) -> bool {
+    /// enters, each once, until it asks to stop; nothing if the structure does not walk.
+    fn walk_shape<Q: BoxQuery>(&self, query: &mut Q) {
         let _ = query;
-        false
     }
 }
 
 impl<N: NodeKind> ShapeWalk for WideBvh<N> {
-    fn walk_shape<Q: BoxQuery>(&self, query: &mut Q) -> bool {
+    const WALKS: bool = true;
+
+    fn walk_shape<Q: BoxQuery>(&self, query: &mut Q) {
         self.walk_boxes(query);
-        true
     }
 }
 
 impl<N: NodeFormat> ShapeWalk for AabbTree<N> {
-    fn walk_shape<Q: BoxQuery>(&self, query: &mut Q) -> bool {
+    const WALKS: bool = true;
+
+    fn walk_shape<Q: BoxQuery>(&self, query: &mut Q) {
         walk_binary(self, query);
-        true
     }
 }
 

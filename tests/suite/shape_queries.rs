@@ -12,19 +12,14 @@ use raybatch::shape::{Shape, ShapeError, ShapeQueries, brute_force};
 use raybatch::{Aabb, AccelKind, AnyAccel, BuildOptions, Kernel, Mesh, Ray, RayQueries};
 
 /// The kinds that answer shape queries.
-const ANSWERING: [AccelKind; 6] = [
-    AccelKind::Aabb,
-    AccelKind::Quantized,
-    AccelKind::Bvh4,
-    AccelKind::Bvh8,
-    AccelKind::Bvh4q,
-    AccelKind::Bvh8q,
-];
+fn answering() -> impl Iterator<Item = AccelKind> {
+    AccelKind::ALL.into_iter().filter(|k| k.answers_shapes())
+}
 
 /// Every answering kind with leaves of 1, 4 and 16 triangles.
 fn trees(mesh: &Arc<Mesh>) -> Vec<AnyAccel> {
     let mut trees = Vec::new();
-    for kind in ANSWERING {
+    for kind in answering() {
         for leaf in [1, 4, 16] {
             let options = BuildOptions::default().with_leaf_size(leaf);
             trees.push(kind.build(mesh.clone(), &options).expect("the mesh builds"));
@@ -248,6 +243,11 @@ fn a_point_sweeps_as_the_ray_query() {
 
 #[test]
 fn kinds_without_a_walk_and_bad_shapes_are_typed_errors() {
+    let names: Vec<&str> = answering().map(|k| k.name()).collect();
+    assert_eq!(
+        names,
+        ["aabb", "quantized", "bvh4", "bvh8", "bvh4q", "bvh8q"]
+    );
     let floor = floor();
     let sphere = Shape::Sphere {
         centre: Vec3::ONE,
@@ -256,7 +256,7 @@ fn kinds_without_a_walk_and_bad_shapes_are_typed_errors() {
     for kind in AccelKind::ALL {
         let tree = kind.build(floor.clone(), &BuildOptions::default()).unwrap();
         let answer = tree.overlaps(&sphere);
-        if ANSWERING.contains(&kind) {
+        if kind.answers_shapes() {
             assert_eq!(answer, Ok(true));
         } else {
             assert_eq!(answer, Err(ShapeError::Unsupported { kind }));
