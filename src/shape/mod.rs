@@ -4,7 +4,7 @@
 //! Game AI asks more than "can A see B": an agent has a radius, so "can it walk from A to B"
 //! is a capsule swept along the segment, and "which walls are within 2 m" an overlap. The
 //! queries walk a tree as the rays do, entering every node whose box the shape (or the volume
-//! it sweeps) may touch, and decide each triangle in `f64` ([`exact`]): culls are
+//! it sweeps) may touch, and decide each triangle in `f64` (the `exact` module): culls are
 //! conservative, the triangle tests closed (touching counts) and the same for every
 //! structure that answers, so a tree's answer equals [`brute_force`]'s, the tie rule
 //! included (on equal contact times the lowest triangle id wins).
