@@ -221,11 +221,43 @@ fn ray_slab(d: DVec3, corners: &[DVec3], r: f64) -> Option<f64> {
     inside.then_some(t)
 }
 
+/// Whether the capsule of segment `[a, b]` and radius `r` overlaps triangle `tri` (touching
+/// counts): the triangle's plane first, then the closest points.
+pub(crate) fn capsule_overlaps_triangle(a: DVec3, b: DVec3, r: f64, tri: [DVec3; 3]) -> bool {
+    if plane_separates(a, b, r, DVec3::ZERO, tri) {
+        return false;
+    }
+    let (on_shape, on_triangle) = closest_segment_triangle(a, b, tri);
+    on_shape.distance_squared(on_triangle) <= r * r
+}
+
+/// Whether the triangle's plane keeps the capsule of segment `[a, b]` and radius `r` clear of
+/// it over the whole motion `d`: the four ends of the swept segment lie farther than `r` from
+/// the plane, on one side. Most triangles near a sweep fail this cheap test, which needs no
+/// closest points; its margin (`1e-9` of the distances involved, far above the rounding of
+/// either test) leaves a grazing contact to the exact test.
+fn plane_separates(a: DVec3, b: DVec3, r: f64, d: DVec3, [p, q, s]: [DVec3; 3]) -> bool {
+    let n = (q - p).cross(s - p);
+    let length = n.length();
+    if length == 0.0 {
+        return false;
+    }
+    let scale = (a - p).abs().max((b - p).abs()).max_element() + d.abs().max_element() + r;
+    let reach = (r + 1e-9 * scale) * length;
+    let side = |x: DVec3| n.dot(x - p);
+    let (da, db) = (side(a), side(b));
+    let (ea, eb) = (da + n.dot(d), db + n.dot(d));
+    let (lo, hi) = (da.min(db).min(ea.min(eb)), da.max(db).max(ea.max(eb)));
+    lo > reach || hi < -reach
+}
+
 /// The first time in `[0, 1]` at which the capsule of segment `[a, b]` and radius `r`, moved
 /// by `t * d`, touches triangle `tri` (0 if it touches at the start); a sphere is `a == b`.
 pub(crate) fn sweep_time(a: DVec3, b: DVec3, r: f64, d: DVec3, tri: [DVec3; 3]) -> Option<f64> {
-    let (on_shape, on_triangle) = closest_segment_triangle(a, b, tri);
-    if on_shape.distance_squared(on_triangle) <= r * r {
+    if plane_separates(a, b, r, d, tri) {
+        return None;
+    }
+    if capsule_overlaps_triangle(a, b, r, tri) {
         return Some(0.0);
     }
     // The grown hull's generators: the triangle's corners minus each end of the segment.

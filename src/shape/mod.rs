@@ -23,7 +23,7 @@ use crate::catalog::AccelKind;
 use crate::geom::Aabb;
 
 pub use query::ShapeQueries;
-pub(crate) use walk::{BoxQuery, ShapeWalk};
+pub(crate) use walk::{BoxQuery, ShapeWalk, push_order};
 
 /// A solid shape: a ball, an axis-aligned box or a capsule (the points within `radius` of a
 /// segment), closed.
@@ -160,9 +160,7 @@ impl Shape {
                 exact::box_overlaps_triangle((min + max) * 0.5, (max - min) * 0.5, t)
             }
             Ok((a, b, r)) => {
-                let (on_shape, on_triangle) =
-                    exact::closest_segment_triangle(a.as_dvec3(), b.as_dvec3(), t);
-                on_shape.distance_squared(on_triangle) <= f64::from(r) * f64::from(r)
+                exact::capsule_overlaps_triangle(a.as_dvec3(), b.as_dvec3(), r.into(), t)
             }
         }
     }

@@ -139,15 +139,21 @@ impl<'s, F: FnMut(u32) -> bool> Overlap<'s, F> {
     }
 }
 
-impl<F: FnMut(u32) -> bool> BoxQuery for Overlap<'_, F> {
-    fn enters(&self, bounds: &Aabb) -> bool {
+impl<F: FnMut(u32) -> bool> Overlap<'_, F> {
+    fn touches(&self, bounds: &Aabb) -> bool {
         let (min, max) = (bounds.min.as_dvec3(), bounds.max.as_dvec3());
         min.cmple(self.high).all() && max.cmpge(self.low).all()
+    }
+}
+
+impl<F: FnMut(u32) -> bool> BoxQuery for Overlap<'_, F> {
+    fn entry(&self, bounds: &Aabb) -> Option<f64> {
+        self.touches(bounds).then_some(0.0)
     }
 
     fn triangle(&mut self, id: u32, corners: &[Vec3; 3]) -> bool {
         // The triangle's own box first: most of a leaf's triangles fail it.
-        self.enters(&Aabb::from_points(corners))
+        self.touches(&Aabb::from_points(corners))
             && self.shape.overlaps_triangle(corners)
             && (self.found)(id)
     }
@@ -185,10 +191,19 @@ impl<'s> Sweep<'s> {
     }
 }
 
+impl Sweep<'_> {
+    /// The best contact's time so far (1 before any).
+    fn end(&self) -> f64 {
+        self.best.as_ref().map_or(1.0, |b| b.t)
+    }
+}
+
 impl BoxQuery for Sweep<'_> {
-    fn enters(&self, bounds: &Aabb) -> bool {
+    const NEAREST_FIRST: bool = true;
+
+    fn entry(&self, bounds: &Aabb) -> Option<f64> {
         if bounds.is_empty() {
-            return false;
+            return None;
         }
         let (min, max) = (bounds.min.as_dvec3(), bounds.max.as_dvec3());
         let scale = min
@@ -198,13 +213,12 @@ impl BoxQuery for Sweep<'_> {
             .max(self.low.abs());
         let grow = self.radius + margin(scale.max_element() + self.radius);
         let (lo, hi) = (min - self.high - grow, max - self.low + grow);
-        let end = self.best.as_ref().map_or(1.0, |b| b.t);
         let d = self.motion.as_dvec3();
-        let (mut near, mut far) = (0.0f64, end);
+        let (mut near, mut far) = (0.0f64, self.end());
         for axis in 0..3 {
             if d[axis] == 0.0 {
                 if lo[axis] > 0.0 || hi[axis] < 0.0 {
-                    return false;
+                    return None;
                 }
                 continue;
             }
@@ -212,13 +226,17 @@ impl BoxQuery for Sweep<'_> {
             near = near.max(t0.min(t1));
             far = far.min(t0.max(t1));
         }
-        near <= far
+        (near <= far).then_some(near)
+    }
+
+    fn still_reaches(&self, entry: f64) -> bool {
+        entry <= self.end()
     }
 
     fn triangle(&mut self, id: u32, corners: &[Vec3; 3]) -> bool {
         // The triangle's own box first (and against the best contact so far): the exact
         // test costs dozens of box tests.
-        if !self.enters(&Aabb::from_points(corners)) {
+        if self.entry(&Aabb::from_points(corners)).is_none() {
             return false;
         }
         match self.shape.sweep_time(self.motion, corners) {
