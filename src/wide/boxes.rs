@@ -2,13 +2,14 @@
 //! entered, in no particular order (see [`crate::shape`]).
 
 use super::{NodeKind, WideBvh};
-use crate::bvh::build::MAX_DEPTH;
 use crate::bvh::nodes::leaf_word;
 use crate::shape::{BoxQuery, push_order};
+use crate::workspace::Workspace;
 
-/// Pending children: a pop pushes at most a node's width, and a path is at most
-/// [`MAX_DEPTH`] nodes long.
-const STACK: usize = 8 * (MAX_DEPTH + 1);
+/// The walk's pending children (word, entry time), kept per thread: a stack sized for the
+/// deepest tree would be cleared on every query, costing a sphere overlap a third of its time.
+#[derive(Default)]
+struct Pending(Vec<(u32, f64)>);
 
 impl<N: NodeKind> WideBvh<N> {
     /// Offers `query` every triangle of a leaf whose box, and whose ancestors' boxes, it
@@ -20,12 +21,17 @@ impl<N: NodeKind> WideBvh<N> {
         let Some(entry) = query.entry(&self.root_bounds) else {
             return;
         };
-        let mut stack = [(0u32, 0.0f64); STACK];
-        let mut len = 1;
-        stack[0] = (self.root, entry);
-        while len > 0 {
-            len -= 1;
-            let (item, entry) = stack[len];
+        Workspace::with_local(|workspace| {
+            let stack = &mut workspace.scratch::<Pending>().0;
+            stack.clear();
+            stack.push((self.root, entry));
+            self.walk_from(stack, query);
+        });
+    }
+
+    /// Walks the pending children on `stack` until none are left or the query stops.
+    fn walk_from<Q: BoxQuery>(&self, stack: &mut Vec<(u32, f64)>, query: &mut Q) {
+        while let Some((item, entry)) = stack.pop() {
             if !query.still_reaches(entry) {
                 continue;
             }
@@ -49,8 +55,7 @@ impl<N: NodeKind> WideBvh<N> {
                 }
             }
             push_order::<_, Q>(&mut entered[..count]);
-            stack[len..len + count].copy_from_slice(&entered[..count]);
-            len += count;
+            stack.extend_from_slice(&entered[..count]);
         }
     }
 }
