@@ -1,5 +1,5 @@
 //! The wide trees' walk for the shape queries: every child whose box the query may touch is
-//! entered, in no particular order (see [`crate::shape`]).
+//! entered, nearest first for the sweeps (see [`crate::shape`]).
 
 use super::{NodeKind, WideBvh};
 use crate::bvh::nodes::leaf_word;
@@ -46,16 +46,13 @@ impl<N: NodeKind> WideBvh<N> {
                 continue;
             }
             let node = &self.nodes[item as usize];
-            let mut entered = [(0u32, 0.0f64); 8];
-            let mut count = 0;
+            let first = stack.len();
             for slot in 0..node.used_slots() {
                 if let Some(entry) = query.entry(&node.child_bounds(slot)) {
-                    entered[count] = (node.child(slot), entry);
-                    count += 1;
+                    stack.push((node.child(slot), entry));
                 }
             }
-            push_order::<_, Q>(&mut entered[..count]);
-            stack.extend_from_slice(&entered[..count]);
+            push_order::<_, Q>(&mut stack[first..]);
         }
     }
 }
